@@ -1,0 +1,13 @@
+"""Discrete element engine: Hertz-Mindlin spheres and moving rigid walls in Taichi."""
+
+from .engine import Engine, EngineOptions, SimulationError
+from .geometry import Body, Capsule, Cylinder, Mesh, Motion, Plane
+from .materials import Interaction, Material
+from .results import Recorder, Results
+from .runtime import init_taichi
+from .system import SystemSpec
+
+__all__ = [
+    "Body", "Capsule", "Cylinder", "Engine", "EngineOptions", "Interaction", "Material", "Mesh",
+    "Motion", "Plane", "Recorder", "Results", "SimulationError", "SystemSpec", "init_taichi",
+]

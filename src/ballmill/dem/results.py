@@ -1,0 +1,132 @@
+"""Observers: what a run records, as tidy tables with units in the column names."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+TABLES = ("loads", "energy", "collisions", "trajectories")
+
+
+@dataclass
+class Results:
+    """Time series of one run.
+
+    loads: per sample, replica and body, the interval-mean force (N), torque about the
+    body's motion axis (N m) and power delivered by the body to the particles (W); the
+    `_rolling` columns hold the rolling-friction part, which EDEM leaves out of geometry
+    torque: `torque_axis_nm` and `power_w` exclude it, add the `_rolling` column to include it.
+    energy: kinetic and potential energy per replica (J).
+    collisions: one row per finished contact.
+    trajectories: particle states at each sample (when recorded).
+    """
+
+    loads: pd.DataFrame
+    energy: pd.DataFrame
+    collisions: pd.DataFrame
+    trajectories: pd.DataFrame
+
+    def write(self, folder: str | Path) -> None:
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        for name in TABLES:
+            getattr(self, name).to_parquet(folder / f"{name}.parquet", index=False)
+
+    def mean_power_w(self, body: str, after_s: float = 0.0, rolling: bool = False, blocks: int = 10):
+        """Mean power (W) delivered by `body` after `after_s`, with its standard error from
+        `blocks` batch means (robust to the autocorrelation of the signal)."""
+        df = self.loads[(self.loads.body == body) & (self.loads.t_s > after_s)]
+        p = (df.power_w + (df.power_rolling_w if rolling else 0.0)).to_numpy()
+        if len(p) < blocks:
+            return float(p.mean()), float("nan")
+        means = np.array([c.mean() for c in np.array_split(p, blocks)])
+        return float(p.mean()), float(means.std(ddof=1) / np.sqrt(blocks))
+
+
+class Recorder:
+    """Collects samples from an Engine; trajectories every `trajectory_every` samples (0: never)."""
+
+    def __init__(self, engine, trajectory_every: int = 0):
+        self.every = trajectory_every
+        self.body_names = [b.name for b in engine.spec.bodies]
+        self.n_samples = 0
+        self.columns = {name: defaultdict(list) for name in TABLES}
+
+    def _add(self, table: str, **cols) -> None:
+        n = max(np.size(v) for v in cols.values())
+        for k, v in cols.items():
+            self.columns[table][k].append(np.broadcast_to(v, (n,)) if np.ndim(v) == 0 else np.asarray(v))
+
+    def sample(self, engine) -> None:
+        t = engine.time_s
+        reps = engine.spec.replica
+        loads = engine.drain_loads()
+        axis = engine.wall_axis()
+        for b, name in enumerate(self.body_names):
+            ax = axis[:, b]
+            self._add(
+                "loads", t_s=t, replica=np.arange(engine.n_rep), body=np.full(engine.n_rep, name, object),
+                torque_axis_nm=np.einsum("ij,ij->i", loads["torque"][:, b], ax),
+                torque_rolling_axis_nm=np.einsum("ij,ij->i", loads["torque_rolling"][:, b], ax),
+                power_w=loads["power"][:, b], power_rolling_w=loads["power_rolling"][:, b],
+                force_x_n=loads["force"][:, b, 0], force_y_n=loads["force"][:, b, 1],
+                force_z_n=loads["force"][:, b, 2],
+            )
+        x, v, w = engine.x.to_numpy(), engine.v.to_numpy(), engine.w.to_numpy()
+        m = engine.mass_np
+        g = np.asarray(engine.spec.gravity_m_per_s2)
+
+        def per_replica(q):
+            return np.bincount(reps, q, minlength=engine.n_rep)
+
+        self._add(
+            "energy", t_s=t, replica=np.arange(engine.n_rep),
+            kinetic_j=per_replica(0.5 * m * (v**2).sum(1)),
+            rotational_j=per_replica(0.2 * m * engine.spec.radius_m**2 * (w**2).sum(1)),
+            potential_j=per_replica(-m * (x @ g)),
+        )
+        self._collisions(engine)
+        if self.every and self.n_samples % self.every == 0:
+            self._add(
+                "trajectories", t_s=t, replica=reps, particle=np.arange(engine.n),
+                x_m=x[:, 0], y_m=x[:, 1], z_m=x[:, 2],
+                vx_m_per_s=v[:, 0], vy_m_per_s=v[:, 1], vz_m_per_s=v[:, 2],
+                wx_rad_per_s=w[:, 0], wy_rad_per_s=w[:, 1], wz_rad_per_s=w[:, 2],
+            )
+        self.n_samples += 1
+
+    def _collisions(self, engine) -> None:
+        ints, vals = engine.drain_events()
+        if not len(ints):
+            return
+        i, key = ints[:, 0], ints[:, 1]
+        n, nw, nt = engine.n, engine.n_wall, engine.n_tri
+        is_pair = key < n
+        body = np.full(len(key), -1)
+        wall = (key >= n) & (key < n + nw)
+        if nw:
+            body[wall] = engine.w_body.to_numpy()[key[wall] - n]
+        mesh = key >= n + nw + nt
+        if engine.n_mesh:
+            body[mesh] = engine.m_body.to_numpy()[key[mesh] - n - nw - nt]
+        m = engine.mass_np
+        m_j = m[np.where(is_pair, key, i)]
+        m_eff = np.where(is_pair, m[i] * m_j / (m[i] + m_j), m[i])
+        names = np.array(self.body_names + [""], dtype=object)
+        self._add(
+            "collisions", t_start_s=ints[:, 2] * engine.dt, t_end_s=ints[:, 3] * engine.dt,
+            replica=engine.spec.replica[i], particle=i, partner=np.where(is_pair, key, -1),
+            kind=np.where(is_pair, "ball-ball", "ball-wall").astype(object), body=names[body],
+            impact_speed_m_per_s=vals[:, 0], impact_energy_j=0.5 * m_eff * vals[:, 0] ** 2,
+            dissipated_j=vals[:, 1],
+        )
+
+    def results(self) -> Results:
+        frames = {
+            name: pd.DataFrame({k: np.concatenate(v) for k, v in cols.items()}) for name, cols in self.columns.items()
+        }
+        return Results(**frames)

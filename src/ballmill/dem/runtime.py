@@ -1,0 +1,36 @@
+"""Taichi start-up in one place: arch, precision and threads come from the caller."""
+
+from __future__ import annotations
+
+import taichi as ti
+
+ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda}
+PRECISIONS = {"f64": ti.f64, "f32": ti.f32}
+
+
+def init_taichi(arch: str = "cpu", precision: str = "f64", threads: int = 0, seed: int = 0) -> None:
+    """(Re)start Taichi.  `threads` = 0 lets Taichi use every core (CPU only).
+
+    A CUDA request never falls back to the CPU silently: it raises instead.
+    """
+    if arch not in ARCHS:
+        raise ValueError(f"sim.arch={arch!r} is not one of {sorted(ARCHS)}")
+    if precision not in PRECISIONS:
+        raise ValueError(f"sim.precision={precision!r} is not one of {sorted(PRECISIONS)}")
+    kwargs = dict(
+        arch=ARCHS[arch],
+        default_fp=PRECISIONS[precision],
+        fast_math=False,
+        random_seed=seed,
+        offline_cache=True,
+        log_level=ti.WARN,
+    )
+    if arch == "cpu" and threads > 0:
+        kwargs["cpu_max_num_threads"] = threads
+    ti.reset()
+    ti.init(**kwargs)
+    actual = ti.lang.impl.current_cfg().arch
+    if arch == "cuda" and actual != ti.cuda:
+        raise RuntimeError(
+            "sim.arch=cuda was asked for but Taichi found no CUDA device; use sim.arch=cpu here"
+        )

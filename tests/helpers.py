@@ -1,0 +1,36 @@
+"""Small systems for the physics tests."""
+
+import numpy as np
+
+from ballmill.dem import Body, Engine, EngineOptions, Interaction, Material, Plane, Recorder, SystemSpec, init_taichi
+
+RIGID = Material("rigid", 1.0, 1e25, 0.3)  # a wall that does not deform: E* = E_ball / (1 - v^2)
+NO_GRAVITY = (0.0, 0.0, 0.0)
+
+
+def floor_system(material, radius, velocities, restitutions=(1.0,), friction=0.0, rolling=0.0,
+                 gap=1e-6, gravity=NO_GRAVITY, wall=RIGID, spins=None):
+    """One sphere per replica just above a floor plane z=0, moving with velocities[r]."""
+    velocities = np.atleast_2d(velocities)
+    n = len(velocities)
+    rest = np.broadcast_to(restitutions, (n,))
+    pos = np.tile([0.0, 0.0, radius + gap], (n, 1))
+    tables = [
+        {tuple(sorted((material.name, wall.name))): Interaction(float(e), friction, rolling),
+         (material.name, material.name): Interaction(float(e), friction, rolling)}
+        for e in rest
+    ]
+    return SystemSpec(
+        materials={material.name: material, wall.name: wall}, interactions=tables,
+        position_m=pos, radius_m=np.full(n, radius), material=np.zeros(n), replica=np.arange(n),
+        velocity_m_per_s=velocities, angular_velocity_rad_per_s=spins,
+        bodies=[Body("floor", wall.name, (Plane((0, 0, 0), (0, 0, 1)),))],
+        domain_lo_m=(-10, -10, -1), domain_hi_m=(10, 10, 10), gravity_m_per_s2=gravity,
+    )
+
+
+def run(spec, dt, duration, sample_every=None, trajectory_every=0, **options):
+    init_taichi("cpu", "f64")
+    engine = Engine(spec, EngineOptions(dt_s=dt, **options))
+    results = engine.run(duration, sample_every or duration, Recorder(engine, trajectory_every))
+    return engine, results
