@@ -416,7 +416,11 @@ class Engine:
 
     @ti.func
     def mesh_contacts(self, i, m, old, new, cnt, k):
-        """Face contacts with every triangle touched; if none, the deepest edge/vertex contact."""
+        """Face contacts with every triangle touched; if none, the deepest edge/vertex contact.
+
+        One pass over the triangles of the particle's cell plus one extra iteration that
+        resolves the deepest edge/vertex contact, so the contact code is compiled once.
+        """
         f_i = ti.Vector([0.0, 0.0, 0.0])
         t_i = ti.Vector([0.0, 0.0, 0.0])
         b = self.m_body[m]
@@ -426,35 +430,27 @@ class Engine:
         dims = self.m_dims[m]
         if 0 <= cell[0] < dims[0] and 0 <= cell[1] < dims[1] and 0 <= cell[2] < dims[2]:
             c = self.m_cell0[m] + (cell[0] * dims[1] + cell[1]) * dims[2] + cell[2]
-            faces = 0
-            best_t, best_delta = -1, 0.0
-            for pass_ in ti.static(range(2)):
-                if pass_ == 0 or faces == 0:
-                    for q in range(self.mc_start[c], self.mc_start[c + 1]):
-                        t = self.mc_tris[q]
-                        p, face = closest_point_on_triangle(xb, self.t_corner[t, 0], self.t_corner[t, 1], self.t_corner[t, 2])
-                        d = p - xb
-                        dist = d.norm()
-                        delta = rad - dist
-                        if delta > 0.0 and dist > 0.0:
-                            if pass_ == 0 and face == 1:
-                                faces += 1
-                                key = self.n + self.n_wall + t
-                                slot = self.mesh_slot(i, old, key, m, xb)
-                                df, dt_, cnt = self.wall_contact(i, key, b, self.t_mat[t], delta, d / dist, p, old, new, cnt, k, slot)
-                                f_i += df
-                                t_i += dt_
-                            elif pass_ == 1 and face == 0 and delta > best_delta:
-                                best_t, best_delta = t, delta
-            if best_t >= 0:
+            faces, best_t, best_delta = 0, -1, 0.0
+            q_end = self.mc_start[c + 1]
+            for q in range(self.mc_start[c], q_end + 1):
                 t = best_t
-                p, _ = closest_point_on_triangle(xb, self.t_corner[t, 0], self.t_corner[t, 1], self.t_corner[t, 2])
-                d = p - xb
-                key = self.n + self.n_wall + t
-                slot = self.mesh_slot(i, old, key, m, xb)
-                df, dt_, cnt = self.wall_contact(i, key, b, self.t_mat[t], best_delta, d / d.norm(), p, old, new, cnt, k, slot)
-                f_i += df
-                t_i += dt_
+                if q < q_end:
+                    t = self.mc_tris[q]
+                if t >= 0 and (q < q_end or faces == 0):
+                    p, face = closest_point_on_triangle(xb, self.t_corner[t, 0], self.t_corner[t, 1], self.t_corner[t, 2])
+                    d = p - xb
+                    dist = d.norm()
+                    delta = rad - dist
+                    touch = delta > 0.0 and dist > 0.0 and (face == 1 or q == q_end)
+                    if delta > best_delta and face == 0 and q < q_end:
+                        best_t, best_delta = t, delta
+                    if touch:
+                        faces += face
+                        key = self.n + self.n_wall + t
+                        slot = self.mesh_slot(i, old, key, m, xb)
+                        df, dt_, cnt = self.wall_contact(i, key, b, self.t_mat[t], delta, d / dist, p, old, new, cnt, k, slot)
+                        f_i += df
+                        t_i += dt_
         return f_i, t_i, cnt
 
     @ti.func
@@ -479,8 +475,8 @@ class Engine:
         cnt = 0
         if ti.static(self.use_grid):
             c0 = self.cell_of(i)
-            for off in ti.static(ti.grouped(ti.ndrange((-1, 2), (-1, 2), (-1, 2)))):
-                c = c0 + off
+            for o in range(27):  # a dynamic loop: the contact code is compiled once, not 27 times
+                c = c0 + ti.Vector([o // 9 - 1, (o // 3) % 3 - 1, o % 3 - 1])
                 if 0 <= c[0] < self.dims[0] and 0 <= c[1] < self.dims[1] and 0 <= c[2] < self.dims[2]:
                     cid = self.cell_id(r, c)
                     for q in range(ti.min(self.cell_count[cid], self.cell_cap)):
