@@ -78,11 +78,58 @@ class DrumConfig:
     wall_material: str = "steel"
 
 
+@dataclass
+class ScaleupConfig:
+    """Feed and charge to mill size (paper: 20 min, 30 % fill, 80 mm ball radius, 15 rpm)."""
+
+    pet_feed_kg_per_h: float = rng(1000.0, 0.0, None, lo_open=True)
+    region: Optional[str] = field(default=None, metadata={"doc": "state code: feed = national PET x population share"})
+    napcor_quantity: str = field(default="bottles_collected", metadata={
+        "choices": ("bottles_collected", "bought_by_us_reclaimers", "available_for_recycling")})
+    operating_hours_per_year: float = rng(7920.0, 0.0, 8784.0, lo_open=True)
+    naoh_feed_kg_per_h: Optional[float] = rng(None, 0.0, None, doc="explicit NaOH feed; else naoh_to_stoichiometric")
+    naoh_to_stoichiometric: float = rng(1.0, 0.0, None, lo_open=True, doc="NaOH feed / 2 mol per PET repeat unit")
+    bpr: float = rng(19.0, 0.0, None, lo_open=True, doc="ball mass / reactant (PET + NaOH) mass")
+    residence_time_min: float = rng(20.0, 0.0, None, lo_open=True)
+    fill_fraction: float = rng(0.3, 0.0, 1.0, lo_open=True, hi_open=True)
+    bed_porosity: float = rng(0.4, 0.0, 1.0, hi_open=True)
+    ball_radius_m: float = rng(0.08, 0.0, None, lo_open=True)
+    ball_density_kg_per_m3: float = rng(7900.0, 0.0, None, lo_open=True)
+    speed_rpm: float = rng(15.0, 0.0, None, lo_open=True)
+    shape_rule: str = field(default="length_to_diameter", metadata={"choices": ("length_to_diameter", "fraction_of_critical")})
+    length_to_diameter: float = rng(1.5, 0.0, None, lo_open=True)
+    fraction_of_critical: float = rng(0.7, 0.0, 1.5, lo_open=True)
+
+
+@dataclass
+class EconomicsConfig:
+    """Paper's Eq. 1-3 inputs; prices and indices are read from data/ files."""
+
+    electricity_usd_per_kwh: float = rng(0.07, 0.0, None)
+    hours_per_year: float = rng(7920.0, 0.0, 8784.0, lo_open=True)
+    cost_coefficient_usd: float = rng(64640.0, 0.0, None, lo_open=True)
+    cost_exponent: float = rng(0.64, 0.0, 2.0, lo_open=True)
+    capacity_unit: str = field(default="short_ton_per_h", metadata={"choices": ("short_ton_per_h", "tonne_per_h")})
+    capacity_basis: str = field(default="pet", metadata={"choices": ("pet", "pet_plus_naoh")})
+    cepci_base_year: int = rng(2005, 1950, 2100)
+    cepci_target_year: int = rng(2022, 1950, 2100)
+    yield_slope_percent: float = 6.38
+    yield_intercept_percent: float = -46.35
+    yield_bpr_min: float = 10.0
+    yield_bpr_max: float = 23.0
+    allow_yield_extrapolation: bool = False
+    prices_file: str = "prices.csv"
+    cepci_file: str = "cepci.csv"
+    molar_masses_file: str = "molar_masses.csv"
+
+
 def register() -> None:
     """Schemas for the config groups, so Hydra type-checks them when composing."""
     cs = ConfigStore.instance()
     cs.store(group="sim", name="base_sim", node=SimConfig)
     cs.store(group="mill", name="base_drum", node=DrumConfig)
+    cs.store(group="scaleup", name="base_scaleup", node=ScaleupConfig)
+    cs.store(group="economics", name="base_economics", node=EconomicsConfig)
 
 
 def _check_field(path: str, value, meta) -> None:
@@ -119,7 +166,8 @@ def to_object(cfg: DictConfig, schema: type, path: str):
     """Turn a config node into the dataclass `schema`, refusing unknown keys, then range-check."""
     base = OmegaConf.structured(schema)
     try:
-        merged = OmegaConf.merge(base, cfg)
+        values = OmegaConf.to_container(cfg, resolve=True) if isinstance(cfg, DictConfig) else cfg
+        merged = OmegaConf.merge(base, values)
     except Exception as exc:  # omegaconf's message names the key and the expected type
         raise ConfigError(f"{path}: {exc}") from exc
     obj = OmegaConf.to_object(merged)

@@ -15,14 +15,10 @@ import numpy as np
 from .config import ConfigError, DrumConfig, InteractionConfig, MaterialConfig, SimConfig
 from .dem import Body, Cylinder, Engine, EngineOptions, Interaction, Material, Mesh, Motion, Plane, Recorder
 from .dem import SystemSpec, init_taichi
+from .scaleup import critical_speed_rpm
 
 log = logging.getLogger(__name__)
 AXIS = (0.0, 1.0, 0.0)  # drum axis; gravity is -z
-
-
-def critical_speed_rpm(mill_diameter_m: float, ball_diameter_m: float) -> float:
-    """N_c = 42.3 / sqrt(D - d) rpm (D, d in m)."""
-    return 42.3 / math.sqrt(mill_diameter_m - ball_diameter_m)
 
 
 def drum_speed_rpm(drum: DrumConfig) -> float:
@@ -157,7 +153,7 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
     power_roll, _ = results.mean_power_w("drum", after, rolling=True)
     loads = results.loads[results.loads.t_s > after]
     summary = {
-        "dem_key": dem_key(drum, materials, interactions, sim),
+        "key": dem_key(drum, materials, interactions, sim),
         "balls": spec.n_particles, "speed_rpm": drum_speed_rpm(drum),
         "critical_speed_rpm": critical_speed_rpm(drum.inner_diameter_m, 2 * drum.ball_radius_m),
         "dt_s": dt, "rayleigh_dt_s": spec.rayleigh_timestep_s(),

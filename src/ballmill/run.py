@@ -1,0 +1,117 @@
+"""One scenario (a composed Hydra config) -> one record, written into the run's folder.
+
+A design run: feed -> scale-up -> DEM of the rotating mill -> power -> economics.
+A drum run: the configured drum -> torque and power over time.
+Failures are recorded (status, message) instead of raised, so a sweep carries on; a job
+whose folder already holds a finished record is skipped, so a sweep can be resumed.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import platform
+import shutil
+import subprocess
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import hydra
+import pandas as pd
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig, OmegaConf
+
+from . import __version__
+from .config import (ConfigError, DrumConfig, EconomicsConfig, InteractionConfig, MaterialConfig, ScaleupConfig,
+                     SimConfig, register, to_object)
+from .drum import dem_key, simulate_drum
+from .economics import bond_rowland_power_w, evaluate, yield_percent
+from .plots import plot_drum_loads, save_figure
+from .scaleup import design_mill
+
+ROOT = Path(__file__).resolve().parents[2]
+log = logging.getLogger(__name__)
+register()
+
+
+def provenance(sim: SimConfig) -> dict:
+    """Package versions, git commit and machine, so a record can be trusted later."""
+    import numpy
+    import taichi
+
+    try:
+        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True,
+                                timeout=10).stdout.strip()
+    except OSError:
+        commit = ""
+    return {
+        "ballmill_version": __version__, "git_commit": commit, "taichi_version": ".".join(map(str, taichi.__version__)),
+        "numpy_version": numpy.__version__, "python": platform.python_version(), "machine": platform.machine(),
+        "cpu_count": os.cpu_count(), "arch": sim.arch, "threads": sim.threads, "precision": sim.precision,
+    }
+
+
+def run(cfg: DictConfig, out_dir: Path) -> dict:
+    """Validate everything first, then simulate; returns the record (no status fields)."""
+    sim = to_object(cfg.sim, SimConfig, "sim")
+    materials = {k: to_object(v, MaterialConfig, f"materials.{k}") for k, v in cfg.materials.items()}
+    pairs = {k: to_object(v, InteractionConfig, f"interactions.{k}") for k, v in cfg.interactions.items()}
+    drum = to_object(cfg.mill, DrumConfig, "mill")
+    kind = cfg.study.kind
+    if kind not in ("design", "drum"):
+        raise ConfigError(f"study.kind={kind!r} is not one of ['design', 'drum']")
+    record: dict = {"study": cfg.study.name, "kind": kind}
+    if kind == "design":
+        scale = to_object(cfg.scaleup, ScaleupConfig, "scaleup")
+        econ = to_object(cfg.economics, EconomicsConfig, "economics")
+        yield_percent(scale.bpr, econ)  # refuse an out-of-range BPR before the DEM
+        design = design_mill(scale)
+        drum = replace(drum, inner_diameter_m=design.diameter_m, inner_length_m=design.length_m,
+                       ball_radius_m=design.ball_radius_m, ball_count=design.ball_count, speed_rpm=design.speed_rpm)
+        record.update(bpr=scale.bpr, region=scale.region, shape_rule=scale.shape_rule, **design.as_record())
+    dem_dir = Path(cfg.cache_dir) / "dem" / dem_key(drum, materials, pairs, sim)
+    dem = simulate_drum(drum, materials, pairs, sim, dem_dir)
+    record.update({f"dem_{k}": v for k, v in dem.items()})
+    record["dem_dir"] = str(dem_dir)
+    loads = pd.read_parquet(dem_dir / "loads.parquet")
+    loads.to_csv(out_dir / "loads.csv", index=False)
+    save_figure(plot_drum_loads(loads, steady_after_s=sim.settle_s + sim.steady_after_s), out_dir / "drum_loads")
+    if kind == "design":
+        record.update(evaluate(dem["power_w"], scale.bpr, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, econ))
+        record["bond_rowland_power_w"] = bond_rowland_power_w(
+            design.diameter_m, design.ball_mass_kg, scale.fill_fraction, design.fraction_of_critical,
+            2 * design.ball_radius_m)
+    return record
+
+
+def write_record(record: dict, out_dir: Path) -> None:
+    (out_dir / "record.json").write_text(json.dumps(record, indent=2, default=str))
+    pd.DataFrame([record]).to_parquet(out_dir / "record.parquet", index=False)
+
+
+def finished(out_dir: Path) -> bool:
+    path = out_dir / "record.json"
+    return path.exists() and json.loads(path.read_text()).get("status") == "ok"
+
+
+@hydra.main(version_base="1.3", config_path=str(ROOT / "conf"), config_name="config")
+def main(cfg: DictConfig) -> None:
+    out_dir = Path(HydraConfig.get().runtime.output_dir)
+    if finished(out_dir):
+        log.info("%s already holds a finished record: skipped", out_dir)
+        return
+    (out_dir / "config_resolved.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
+    sim_cfg = to_object(cfg.sim, SimConfig, "sim") if "sim" in cfg else SimConfig()
+    started = time.time()
+    try:
+        record = {**run(cfg, out_dir), "status": "ok", "error": ""}
+    except Exception as exc:  # recorded, so the sweep and its report carry on
+        log.exception("run failed")
+        record = {"study": cfg.study.name, "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+    record.update(provenance(sim_cfg), wall_time_s=time.time() - started,
+                  overrides=" ".join(HydraConfig.get().overrides.task))
+    write_record(record, out_dir)
+    if record["status"] != "ok":
+        shutil.copy(out_dir / "record.json", out_dir / "FAILED.json")

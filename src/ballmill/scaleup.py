@@ -1,0 +1,85 @@
+"""From a PET feed and a ball charge to the size of a continuous rotating mill.
+
+Hold-up = (PET + NaOH) feed x residence time; balls = BPR x hold-up; the ball bed
+(balls / (1 - porosity)) fills `fill_fraction` of the mill.  The mill's shape is fixed by
+one rule: a length-to-diameter ratio, or running `speed_rpm` at a fraction of the critical
+speed N_c = 42.3 / sqrt(D - d) rpm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+from .config import ScaleupConfig
+from .data import lookup, table
+
+POUND_KG = 0.45359237
+
+
+def stoichiometric_naoh_kg_per_h(pet_kg_per_h: float) -> float:
+    """2 mol NaOH per mol of PET repeat unit (PET + 2 NaOH -> Na2TPA + EG)."""
+    pet = lookup("molar_masses.csv", "species", "pet_repeat_unit", "molar_mass_g_per_mol")
+    naoh = lookup("molar_masses.csv", "species", "naoh", "molar_mass_g_per_mol")
+    return pet_kg_per_h * 2 * naoh / pet
+
+
+def regional_pet_feed_kg_per_h(region: str, napcor_quantity: str, hours_per_year: float) -> float:
+    """NAPCOR 2018 national PET (million lb/yr) x the region's share of the 2018 US population."""
+    pop = table("population_2018.csv")
+    if region not in set(pop.code):
+        raise ValueError(f"scaleup.region={region!r} is not one of {sorted(pop.code)}")
+    share = lookup("population_2018.csv", "code", region, "population") / lookup(
+        "population_2018.csv", "code", "US", "population")
+    national_kg = lookup("napcor_2018.csv", "quantity", napcor_quantity, "value_million_lb") * 1e6 * POUND_KG
+    return national_kg * share / hours_per_year
+
+
+def critical_speed_rpm(mill_diameter_m: float, ball_diameter_m: float) -> float:
+    """N_c = 42.3 / sqrt(D - d) rpm (D, d in m)."""
+    return 42.3 / math.sqrt(mill_diameter_m - ball_diameter_m)
+
+
+@dataclass(frozen=True)
+class MillDesign:
+    pet_feed_kg_per_h: float
+    naoh_feed_kg_per_h: float
+    holdup_kg: float
+    ball_mass_kg: float
+    ball_count: int
+    ball_radius_m: float
+    mill_volume_m3: float
+    diameter_m: float
+    length_m: float
+    speed_rpm: float
+    critical_speed_rpm: float
+    fraction_of_critical: float
+
+    def as_record(self) -> dict:
+        return asdict(self)
+
+
+def design_mill(cfg: ScaleupConfig) -> MillDesign:
+    pet = cfg.pet_feed_kg_per_h
+    if cfg.region is not None:
+        pet = regional_pet_feed_kg_per_h(cfg.region, cfg.napcor_quantity, cfg.operating_hours_per_year)
+    naoh = cfg.naoh_feed_kg_per_h
+    if naoh is None:
+        naoh = cfg.naoh_to_stoichiometric * stoichiometric_naoh_kg_per_h(pet)
+    holdup = (pet + naoh) * cfg.residence_time_min / 60.0
+    ball_mass = cfg.bpr * holdup
+    one_ball = cfg.ball_density_kg_per_m3 * 4 / 3 * math.pi * cfg.ball_radius_m**3
+    volume = ball_mass / cfg.ball_density_kg_per_m3 / (1 - cfg.bed_porosity) / cfg.fill_fraction
+    d_ball = 2 * cfg.ball_radius_m
+    if cfg.shape_rule == "length_to_diameter":
+        diameter = (4 * volume / (math.pi * cfg.length_to_diameter)) ** (1 / 3)
+    else:
+        diameter = d_ball + (42.3 * cfg.fraction_of_critical / cfg.speed_rpm) ** 2
+    length = volume / (math.pi / 4 * diameter**2)
+    n_crit = critical_speed_rpm(diameter, d_ball)
+    return MillDesign(
+        pet_feed_kg_per_h=pet, naoh_feed_kg_per_h=naoh, holdup_kg=holdup,
+        ball_mass_kg=ball_mass, ball_count=max(1, round(ball_mass / one_ball)), ball_radius_m=cfg.ball_radius_m,
+        mill_volume_m3=volume, diameter_m=diameter, length_m=length, speed_rpm=cfg.speed_rpm,
+        critical_speed_rpm=n_crit, fraction_of_critical=cfg.speed_rpm / n_crit,
+    )
