@@ -32,3 +32,36 @@ def plot_drum_loads(loads: pd.DataFrame, steady_after_s: float):
         ax.axvspan(steady_after_s, loads.t_s.max(), color="0.9", zorder=0)
     fig.suptitle("Rotating drum: loads from DEM (shaded: averaging window)")
     return fig
+
+
+def plot_fig3b(table: pd.DataFrame):
+    """Paper Fig. 3b: annual electricity cost by BPR (bars), TPA yield (secondary axis)."""
+    t = table.sort_values("bpr")
+    fig, ax = plt.subplots(figsize=(7, 4))
+    labels = [f"{b:g}" for b in t.bpr]
+    ax.bar(labels, t.electricity_usd_per_yr / 1000, color="C0", label="electricity")
+    ax.set_xlabel("ball-to-powder ratio (BPR)")
+    ax.set_ylabel("electricity cost (k$/yr)")
+    ax2 = ax.twinx()
+    ax2.plot(labels, t.yield_percent, "o-", color="C3", label="yield")
+    ax2.set_ylabel("TPA yield (%)")
+    ax2.set_ylim(0, 105)
+    ax.set_title(f"{t.pet_feed_kg_per_h.iloc[0]:.0f} kg/h PET: electricity cost and yield")
+    fig.legend(loc="upper left", bbox_to_anchor=(0.12, 0.88))
+    return fig
+
+
+def plot_fig4(table: pd.DataFrame):
+    """Paper Fig. 4: purchase cost per unit feed by state (bars), electricity $/t PET (secondary)."""
+    t = table.sort_values("pet_feed_kg_per_h")
+    fig, ax = plt.subplots(figsize=(8, 4))
+    ax.bar(t.region, t.purchase_cost_usd_per_kg_per_h, color="C2", label="purchase cost")
+    ax.set_ylabel("purchase cost per unit feed ($ per kg/h PET)")
+    ax.set_xlabel("state (ordered by PET feed)")
+    ax2 = ax.twinx()
+    ax2.plot(t.region, t.electricity_usd_per_t_pet, "o-", color="C1", label="electricity")
+    ax2.set_ylabel("electricity ($/t PET)")
+    ax2.set_ylim(0, None)
+    ax.set_title("South Atlantic states, NAPCOR 2018 PET split by population, BPR 20")
+    fig.legend(loc="upper right", bbox_to_anchor=(0.88, 0.88))
+    return fig

@@ -1,0 +1,51 @@
+"""Configs compose, sweeps compose, and bad values fail early with the field and the range."""
+
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+
+from ballmill.config import ConfigError, DrumConfig, SimConfig, register, to_object
+from ballmill.run import ROOT, run
+
+register()
+
+
+def composed(overrides=()):
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
+        return compose("config", overrides=[*overrides, f"hydra.searchpath=[file://{ROOT}]"], return_hydra_config=True)
+
+
+@pytest.mark.parametrize("sweep", sorted(p.stem for p in (ROOT / "sweep").glob("*.yaml")))
+def test_every_sweep_composes(sweep):
+    cfg = composed([f"+sweep={sweep}"])
+    assert cfg.hydra.mode.name == "MULTIRUN"
+    assert cfg.hydra.sweeper.params
+    assert cfg.study.name == sweep
+
+
+@pytest.mark.parametrize(
+    "override, message",
+    [
+        ("materials.steel.density_kg_per_m3=-1", r"materials.steel.density_kg_per_m3=-1.0 is outside .*\(0.0, inf\]"),
+        ("interactions.steel-steel.restitution=1.5", r"interactions.steel-steel.restitution=1.5 is outside .*\(0.0, 1.0\]"),
+        ("scaleup.fill_fraction=1.0", r"scaleup.fill_fraction=1.0 is outside .*\(0.0, 1.0\)"),
+        ("sim.arch=gpu", r"sim.arch='gpu' is not one of \['cpu', 'cuda'\]"),
+        ("mill.ball_material=unobtainium", r"unknown material 'unobtainium'"),
+        ("scaleup.bpr=30", r"scaleup.bpr=30.0 is outside the yield fit's range"),
+    ],
+)
+def test_bad_values_fail_before_any_simulation_naming_field_and_range(override, message, tmp_path):
+    cfg = composed([override, f"cache_dir={tmp_path}"])
+    with pytest.raises(ConfigError, match=message):
+        run(cfg, tmp_path)
+    assert not any(Path(tmp_path).glob("dem/*/loads.parquet"))
+
+
+def test_unknown_keys_and_wrong_types_are_refused():
+    with pytest.raises(ConfigError, match="sim"):
+        to_object({"dt_fractoin": 0.1}, SimConfig, "sim")
+    with pytest.raises(ConfigError, match="mill"):
+        to_object({"inner_diameter_m": "wide"}, DrumConfig, "mill")

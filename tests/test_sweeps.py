@@ -1,0 +1,75 @@
+"""The paper's two sweeps, end to end with the ci config: folders, resume, report, goldens.
+
+Golden tables were produced by this test on the development machine
+(BALLMILL_UPDATE_GOLDEN=1 rewrites them).  Scale-up and economics columns are exact
+formulas and must match to 1e-9; DEM power comes from a chaotic many-body run whose
+floating-point path can differ between CPUs, so it must match within 15 %.
+"""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+GOLDEN = Path(__file__).parent / "golden"
+EXACT = ["pet_feed_kg_per_h", "naoh_feed_kg_per_h", "diameter_m", "length_m", "ball_count", "purchase_cost_usd",
+         "purchase_cost_usd_per_kg_per_h", "yield_percent", "margin_usd_per_t_tpa"]
+DEM = ["dem_power_w", "electricity_usd_per_t_pet"]
+
+
+def ballmill(*args, cwd):
+    cmd = [sys.executable, "-c", "from ballmill.cli import main; main()", *args]
+    return subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=1200)
+
+
+@pytest.fixture(scope="module")
+def sweeps(tmp_path_factory):
+    root = tmp_path_factory.mktemp("sweeps")
+    for name in ("fig3b", "fig4"):
+        proc = ballmill("run", f"+sweep={name}", "sim=ci", f"hydra.sweep.dir={root / name}",
+                        f"cache_dir={root / 'cache'}", cwd=root)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+    return root
+
+
+@pytest.mark.parametrize("name, key, n_jobs", [("fig3b", "bpr", 7), ("fig4", "region", 9)])
+def test_sweep_report_matches_golden_table(sweeps, name, key, n_jobs):
+    proc = ballmill("report", str(sweeps / name), "--out", str(sweeps / "report"), cwd=sweeps)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    table = pd.read_parquet(sweeps / "report" / f"{name}.parquet")
+    assert len(table) == n_jobs and (table.status == "ok").all()
+    for ext in ("png", "svg", "csv", "md", "provenance.json"):
+        assert (sweeps / "report" / f"{name}.{ext}").stat().st_size > 0
+    assert "census.gov" in (sweeps / "report" / f"{name}.provenance.json").read_text()
+    ours = table.sort_values(key).reset_index(drop=True)[[key, *EXACT, *DEM]]
+    golden_path = GOLDEN / f"{name}.csv"
+    if os.environ.get("BALLMILL_UPDATE_GOLDEN"):
+        ours.to_csv(golden_path, index=False)
+    golden = pd.read_csv(golden_path, keep_default_na=False).sort_values(key).reset_index(drop=True)
+    assert ours[key].astype(str).tolist() == golden[key].astype(str).tolist()
+    pd.testing.assert_frame_equal(ours[EXACT], golden[EXACT], rtol=1e-9, check_dtype=False)
+    pd.testing.assert_frame_equal(ours[DEM], golden[DEM], rtol=0.15, check_dtype=False)
+
+
+def test_rerunning_a_finished_sweep_recomputes_nothing(sweeps):
+    job = next((sweeps / "fig3b").glob("*/record.json"))
+    before = json.loads(job.read_text())["wall_time_s"]
+    proc = ballmill("run", "+sweep=fig3b", "sim=ci", f"hydra.sweep.dir={sweeps / 'fig3b'}",
+                    f"cache_dir={sweeps / 'cache'}", cwd=sweeps)
+    assert proc.returncode == 0
+    assert proc.stdout.count("skipped") + proc.stderr.count("skipped") == 7
+    assert json.loads(job.read_text())["wall_time_s"] == before
+
+
+def test_failed_job_is_recorded_and_the_sweep_carries_on(tmp_path):
+    proc = ballmill("run", "-m", "scaleup.bpr=19,30", "sim=ci", "sim.duration_s=0.05", "sim.settle_s=0.05",
+                    f"hydra.sweep.dir={tmp_path}", f"cache_dir={tmp_path / 'cache'}", cwd=tmp_path)
+    records = {p.parent.name: json.loads(p.read_text()) for p in tmp_path.glob("*/record.json")}
+    assert records["scaleup.bpr=19"]["status"] == "ok"
+    assert records["scaleup.bpr=30"]["status"] == "failed"
+    assert "outside the yield fit's range" in records["scaleup.bpr=30"]["error"]
+    assert proc.returncode == 0
