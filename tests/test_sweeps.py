@@ -68,8 +68,9 @@ def test_rerunning_a_finished_sweep_recomputes_nothing(sweeps):
 def test_failed_job_is_recorded_and_the_sweep_carries_on(tmp_path):
     proc = ballmill("run", "-m", "scaleup.bpr=19,30", "sim=ci", "sim.duration_s=0.05", "sim.settle_s=0.05",
                     f"hydra.sweep.dir={tmp_path}", f"cache_dir={tmp_path / 'cache'}", cwd=tmp_path)
-    records = {p.parent.name: json.loads(p.read_text()) for p in tmp_path.glob("*/record.json")}
+    records = {p.parent.name.split(",")[0]: json.loads(p.read_text()) for p in tmp_path.glob("*/record.json")}
     assert records["scaleup.bpr=19"]["status"] == "ok"
     assert records["scaleup.bpr=30"]["status"] == "failed"
     assert "outside the yield fit's range" in records["scaleup.bpr=30"]["error"]
+    assert (tmp_path / "scaleup.bpr=30,sim.duration_s=0.05,sim.settle_s=0.05" / "FAILED.json").exists()
     assert proc.returncode == 0

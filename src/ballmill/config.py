@@ -123,6 +123,27 @@ class EconomicsConfig:
     molar_masses_file: str = "molar_masses.csv"
 
 
+@dataclass
+class MM400Config:
+    """Retsch MM400 jar and motion.  No citable source gave the 25 mL jar's inner size or the
+    arm's geometry: defaults are estimates (see README, "Lab scale"), each a field to sweep."""
+
+    jar_volume_ml: float = rng(25.0, 0.0, None, lo_open=True)
+    jar_inner_diameter_m: float = rng(0.030, 0.0, None, lo_open=True, doc="end caps hemispherical")
+    amplitude_m: float = rng(0.009, 0.0, None, doc="half stroke of the jar centre along its arc")
+    pivot_radius_m: float = rng(0.11, 0.0, None, lo_open=True, doc="arm length: pivot to jar centre")
+    frequencies_hz: list[float] = field(default_factory=lambda: [22.5, 25.0, 27.5, 30.0])
+    ball_diameters_m: list[float] = field(default_factory=lambda: [0.0176, 0.0206])
+    balls_per_jar: int = rng(1, 1, 2)
+    wall_material: str = "pmma"
+    ball_material: str = "steel"
+    camera_fps: float = rng(2134.0, 0.0, None, lo_open=True)
+    duration_s: float = rng(2.0, 0.0, None, lo_open=True)
+    settle_s: float = rng(0.2, 0.0, None, doc="start-up transient left out of the statistics")
+    collision_speed_jump_m_per_s: float = rng(0.3, 0.0, None, lo_open=True,
+                                              doc="frame-to-frame velocity change counted as a collision")
+
+
 def register() -> None:
     """Schemas for the config groups, so Hydra type-checks them when composing."""
     cs = ConfigStore.instance()
@@ -130,6 +151,7 @@ def register() -> None:
     cs.store(group="mill", name="base_drum", node=DrumConfig)
     cs.store(group="scaleup", name="base_scaleup", node=ScaleupConfig)
     cs.store(group="economics", name="base_economics", node=EconomicsConfig)
+    cs.store(group="lab", name="base_mm400", node=MM400Config)
 
 
 def _check_field(path: str, value, meta) -> None:
