@@ -1,0 +1,73 @@
+"""Reading and writing frame sequences: a lossless video file or a folder of images.
+
+Containers often cannot hold a capture rate like 2134 fps, so videos are written at a
+nominal playback rate and the capture rate travels in a JSON sidecar (`<video>.json`), as
+high-speed cameras' files do; it can always be given explicitly instead.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Iterable, Iterator
+
+import cv2
+import numpy as np
+
+IMAGE_SUFFIXES = {".png", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg"}
+
+
+def write_frames(frames: Iterable[np.ndarray], path: str | Path, capture_fps: float, mm_per_px: float,
+                 playback_fps: float = 30.0) -> Path:
+    """Greyscale uint8 frames to a lossless FFV1 video (.avi/.mkv) or to PNGs in a folder."""
+    path = Path(path)
+    meta = {"capture_fps": capture_fps, "mm_per_px": mm_per_px, "playback_fps": playback_fps}
+    writer = None
+    if path.suffix.lower() in (".avi", ".mkv"):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        for frame in frames:
+            if writer is None:
+                h, w = frame.shape
+                writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), playback_fps, (w, h), isColor=False)
+                if not writer.isOpened():
+                    raise RuntimeError(f"OpenCV cannot write an FFV1 video to {path}; write PNG frames to a folder")
+            writer.write(frame)
+        if writer is not None:
+            writer.release()
+        path.with_suffix(path.suffix + ".json").write_text(json.dumps(meta))
+    else:
+        path.mkdir(parents=True, exist_ok=True)
+        for k, frame in enumerate(frames):
+            cv2.imwrite(str(path / f"frame_{k:06d}.png"), frame)
+        (path / "capture.json").write_text(json.dumps(meta))
+    return path
+
+
+def read_meta(path: str | Path) -> dict:
+    """Capture metadata written beside a video or inside a frame folder ({} when none)."""
+    path = Path(path)
+    side = path / "capture.json" if path.is_dir() else path.with_suffix(path.suffix + ".json")
+    return json.loads(side.read_text()) if side.exists() else {}
+
+
+def read_frames(path: str | Path) -> Iterator[np.ndarray]:
+    """Greyscale frames of a video file or of the images in a folder (sorted by name)."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"video={path} does not exist")
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        if not files:
+            raise FileNotFoundError(f"video={path}: no image files ({sorted(IMAGE_SUFFIXES)}) in the folder")
+        for f in files:
+            yield cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+        return
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        raise RuntimeError(f"video={path}: OpenCV cannot open it")
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        yield frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+    cap.release()

@@ -1,0 +1,92 @@
+"""Synthetic high-speed video of the MM400 jar from simulated trajectories (known truth).
+
+Side view along y: image x is world x (the jar's axis), image up is world z.  Balls are
+shaded discs with a specular highlight, the jar's outline moves with the mill, the exposure
+blurs motion (several sub-frame renders averaged) and the sensor adds Gaussian noise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator
+
+import cv2
+import numpy as np
+import pandas as pd
+
+SHIFT = 4  # OpenCV fixed-point bits: sub-pixel drawing
+
+
+@dataclass(frozen=True)
+class Camera:
+    fps: float = 2134.0
+    mm_per_px: float = 0.2
+    width_px: int = 360
+    height_px: int = 220
+    exposure_fraction: float = 0.5  # shutter open for this share of the frame interval
+    blur_samples: int = 4
+    noise_grey: float = 2.0  # sensor noise, standard deviation in grey levels
+    backlit: bool = True  # bright jar, dark balls; False: dark background, bright balls
+    seed: int = 0
+
+    def to_px(self, x_m, z_m):
+        """World (x, z) in m to image (column, row) in px; the world origin at the image centre."""
+        return (self.width_px / 2 + np.asarray(x_m) * 1e3 / self.mm_per_px,
+                self.height_px / 2 - np.asarray(z_m) * 1e3 / self.mm_per_px)
+
+
+def _fixed(v: float) -> int:
+    return int(round(v * (1 << SHIFT)))
+
+
+def _draw(canvas, cam: Camera, balls, jar_x_m: float, jar_radius_m: float, jar_half_m: float) -> None:
+    bg, ball, spec, line = (200, 45, 235, 90) if cam.backlit else (30, 190, 250, 110)
+    canvas[:] = bg
+    (cx, cy), s = cam.to_px(jar_x_m, 0.0), 1e3 / cam.mm_per_px
+    r_px, h_px = jar_radius_m * s, jar_half_m * s
+    for sign in (-1, 1):
+        cv2.line(canvas, (_fixed(cx - h_px), _fixed(cy + sign * r_px)), (_fixed(cx + h_px), _fixed(cy + sign * r_px)),
+                 line, 2, cv2.LINE_AA, SHIFT)
+        cv2.ellipse(canvas, (_fixed(cx + sign * h_px), _fixed(cy)), (_fixed(r_px), _fixed(r_px)), 0,
+                    -90 if sign > 0 else 90, 90 if sign > 0 else 270, line, 2, cv2.LINE_AA, SHIFT)
+    for x, z, r in balls:
+        u, v = cam.to_px(x, z)
+        rp = r * s
+        cv2.circle(canvas, (_fixed(u), _fixed(v)), _fixed(rp), ball, -1, cv2.LINE_AA, SHIFT)
+        cv2.circle(canvas, (_fixed(u - 0.3 * rp), _fixed(v - 0.3 * rp)), _fixed(0.15 * rp), spec, -1, cv2.LINE_AA, SHIFT)
+
+
+def render(track: pd.DataFrame, radius_m: dict[int, float], jar_x_m, cam: Camera, jar_radius_m: float,
+           jar_half_m: float) -> tuple[Iterator[np.ndarray], pd.DataFrame]:
+    """Frames of one jar from a trajectory sampled at the camera rate (t_s, particle, x_m, z_m).
+
+    `jar_x_m(t)` gives the jar centre's x (m) at time t.  Returns the frames (a generator) and
+    the truth: each ball's centre (px) averaged over the exposure, as the image shows it.
+    """
+    times = np.sort(track.t_s.unique())
+    wide = {c: track.pivot(index="t_s", columns="particle", values=c).loc[times] for c in ("x_m", "z_m")}
+    ids = list(wide["x_m"].columns)
+    frame_dt = 1.0 / cam.fps
+    offsets = -cam.exposure_fraction * frame_dt * (1 - (np.arange(cam.blur_samples) + 0.5) / cam.blur_samples)
+    truth = []
+    for t in times:
+        for p in ids:
+            tt = t + offsets
+            u, v = cam.to_px(np.interp(tt, times, wide["x_m"][p]), np.interp(tt, times, wide["z_m"][p]))
+            truth.append({"t_s": t, "particle": p, "u_px": u.mean(), "v_px": v.mean()})
+
+    def frames():
+        rng = np.random.default_rng(cam.seed)
+        canvas = np.zeros((cam.height_px, cam.width_px), np.uint8)
+        for t in times:
+            acc = np.zeros(canvas.shape, np.float64)
+            for dt in offsets:
+                tt = t + dt
+                balls = [(np.interp(tt, times, wide["x_m"][p]), np.interp(tt, times, wide["z_m"][p]), radius_m[p])
+                         for p in ids]
+                _draw(canvas, cam, balls, jar_x_m(tt), jar_radius_m, jar_half_m)
+                acc += canvas
+            acc = acc / len(offsets) + rng.normal(0.0, cam.noise_grey, acc.shape)
+            yield np.clip(np.rint(acc), 0, 255).astype(np.uint8)
+
+    return frames(), pd.DataFrame(truth)
