@@ -123,7 +123,7 @@ def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
     payload = {
         "drum": asdict(drum), "materials": {k: asdict(v) for k, v in materials.items()},
         "interactions": {k: asdict(v) for k, v in interactions.items()},
-        "sim": asdict(replace(sim, threads=0, arch=sim.arch)),
+        "sim": asdict(replace(sim, threads=0)),
     }
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 

@@ -36,7 +36,7 @@ log = logging.getLogger(__name__)
 register()
 
 
-def provenance(sim: SimConfig) -> dict:
+def provenance(sim) -> dict:
     """Package versions, git commit and machine, so a record can be trusted later."""
     import numpy
     import taichi
@@ -103,14 +103,13 @@ def main(cfg: DictConfig) -> None:
         log.info("%s already holds a finished record: skipped", out_dir)
         return
     (out_dir / "config_resolved.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
-    sim_cfg = to_object(cfg.sim, SimConfig, "sim") if "sim" in cfg else SimConfig()
     started = time.time()
     try:
         record = {**run(cfg, out_dir), "status": "ok", "error": ""}
     except Exception as exc:  # recorded, so the sweep and its report carry on
         log.exception("run failed")
         record = {"study": cfg.study.name, "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
-    record.update(provenance(sim_cfg), wall_time_s=time.time() - started,
+    record.update(provenance(cfg.sim), wall_time_s=time.time() - started,
                   overrides=" ".join(HydraConfig.get().overrides.task))
     write_record(record, out_dir)
     if record["status"] != "ok":

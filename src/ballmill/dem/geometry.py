@@ -81,11 +81,6 @@ class Motion:
     phase_rad: float = 0.0
     start_time_s: float = 0.0  # the body rests before this time (e.g. while a charge settles)
 
-    def max_displacement_m(self, reach_m: float) -> float:
-        """Bound on how far a body point within `reach_m` of the pivot can move (m)."""
-        swing = reach_m * (2.0 if self.angular_velocity_rad_per_s or self.angle_amplitude_rad else 0.0)
-        return swing + float(np.linalg.norm(self.translation_amplitude_m))
-
 
 @dataclass(frozen=True)
 class Body:

@@ -30,10 +30,10 @@ class TrackerSettings:
     rays: int = 72
 
 
-def background(path, n: int) -> np.ndarray:
-    frames = list(read_frames(path))
+def background(frames: list[np.ndarray], n: int) -> np.ndarray:
+    """Per-pixel median of n frames spread over the sequence."""
     pick = np.linspace(0, len(frames) - 1, min(n, len(frames))).astype(int)
-    return np.median(np.stack([frames[k] for k in pick]).astype(np.float32), axis=0), len(frames)
+    return np.median(np.stack([frames[k] for k in pick]).astype(np.float32), axis=0)
 
 
 def candidates(diff: np.ndarray, r_px: float, n: int) -> list[np.ndarray]:
@@ -92,10 +92,11 @@ def track(path, settings: TrackerSettings, fps: float | None = None, mm_per_px: 
     if not fps or not mm_per_px:
         raise ValueError("give fps=... and mm_per_px=... (no capture metadata beside the video)")
     r_px = settings.ball_diameter_mm / 2 / mm_per_px
-    bg, _ = background(path, settings.background_frames)
+    frames = list(read_frames(path))
+    bg = background(frames, settings.background_frames)
     last: list[np.ndarray | None] = [None] * settings.balls
     rows = []
-    for k, frame in enumerate(read_frames(path)):
+    for k, frame in enumerate(frames):
         diff = np.abs(frame.astype(np.float32) - bg)
         found = candidates(diff, r_px, settings.balls)
         fitted = []
