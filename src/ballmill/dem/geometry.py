@@ -81,6 +81,18 @@ class Motion:
     phase_rad: float = 0.0
     start_time_s: float = 0.0  # the body rests before this time (e.g. while a charge settles)
 
+    def place(self, t_s: float, points_m) -> np.ndarray:
+        """World positions (m) at time t_s of body-frame points (..., 3): numpy twin of the engine's pose."""
+        from scipy.spatial.transform import Rotation
+
+        tau = max(t_s - self.start_time_s, 0.0)
+        osc = np.sin(2 * np.pi * self.frequency_hz * tau + self.phase_rad) - np.sin(self.phase_rad)
+        angle = self.angular_velocity_rad_per_s * tau + self.angle_amplitude_rad * osc
+        axis = np.asarray(self.axis, float) / np.linalg.norm(self.axis)
+        rot = Rotation.from_rotvec(angle * axis).as_matrix()
+        pivot = np.asarray(self.pivot_m, float)
+        return pivot + (np.asarray(points_m, float) - pivot) @ rot.T + np.asarray(self.translation_amplitude_m) * osc
+
 
 @dataclass(frozen=True)
 class Body:

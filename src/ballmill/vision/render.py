@@ -1,8 +1,10 @@
 """Synthetic high-speed video of the MM400 jar from simulated trajectories (known truth).
 
 Side view along y: image x is world x (the jar's axis), image up is world z.  Balls are
-shaded discs with a specular highlight, the jar's outline moves with the mill, the exposure
-blurs motion (several sub-frame renders averaged) and the sensor adds Gaussian noise.
+shaded discs with a specular highlight, the jar's outline moves with the mill (its centre
+follows the prescribed motion; the few degrees of swing foreshorten it by < 0.3 %, not drawn),
+the exposure blurs motion (several sub-frame renders averaged) and the sensor adds Gaussian
+noise.
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ from typing import Iterator
 import cv2
 import numpy as np
 import pandas as pd
+
+from ..dem import Capsule, Motion
 
 SHIFT = 4  # OpenCV fixed-point bits: sub-pixel drawing
 
@@ -39,11 +43,11 @@ def _fixed(v: float) -> int:
     return int(round(v * (1 << SHIFT)))
 
 
-def _draw(canvas, cam: Camera, balls, jar_x_m: float, jar_radius_m: float, jar_half_m: float) -> None:
+def _draw(canvas, cam: Camera, balls, jar_centre_m, jar: Capsule) -> None:
     bg, ball, spec, line = (200, 45, 235, 90) if cam.backlit else (30, 190, 250, 110)
     canvas[:] = bg
-    (cx, cy), s = cam.to_px(jar_x_m, 0.0), 1e3 / cam.mm_per_px
-    r_px, h_px = jar_radius_m * s, jar_half_m * s
+    (cx, cy), s = cam.to_px(jar_centre_m[0], jar_centre_m[2]), 1e3 / cam.mm_per_px
+    r_px, h_px = jar.radius_m * s, jar.half_length_m * s
     for sign in (-1, 1):
         cv2.line(canvas, (_fixed(cx - h_px), _fixed(cy + sign * r_px)), (_fixed(cx + h_px), _fixed(cy + sign * r_px)),
                  line, 2, cv2.LINE_AA, SHIFT)
@@ -56,12 +60,13 @@ def _draw(canvas, cam: Camera, balls, jar_x_m: float, jar_radius_m: float, jar_h
         cv2.circle(canvas, (_fixed(u - 0.3 * rp), _fixed(v - 0.3 * rp)), _fixed(0.15 * rp), spec, -1, cv2.LINE_AA, SHIFT)
 
 
-def render(track: pd.DataFrame, radius_m: dict[int, float], jar_x_m, cam: Camera, jar_radius_m: float,
-           jar_half_m: float) -> tuple[Iterator[np.ndarray], pd.DataFrame]:
-    """Frames of one jar from a trajectory sampled at the camera rate (t_s, particle, x_m, z_m).
+def render(track: pd.DataFrame, radius_m: dict[int, float], jar: Capsule, motion: Motion,
+           cam: Camera) -> tuple[Iterator[np.ndarray], pd.DataFrame]:
+    """Frames of one jar (axis along x) from a trajectory sampled at the camera rate.
 
-    `jar_x_m(t)` gives the jar centre's x (m) at time t.  Returns the frames (a generator) and
-    the truth: each ball's centre (px) averaged over the exposure, as the image shows it.
+    `track` has columns t_s, particle, x_m, z_m; `motion` moves the jar.  Returns the frames (a
+    generator) and the truth: each ball's centre (px) averaged over the exposure, as the image
+    shows it.
     """
     times = np.sort(track.t_s.unique())
     wide = {c: track.pivot(index="t_s", columns="particle", values=c).loc[times] for c in ("x_m", "z_m")}
@@ -84,7 +89,7 @@ def render(track: pd.DataFrame, radius_m: dict[int, float], jar_x_m, cam: Camera
                 tt = t + dt
                 balls = [(np.interp(tt, times, wide["x_m"][p]), np.interp(tt, times, wide["z_m"][p]), radius_m[p])
                          for p in ids]
-                _draw(canvas, cam, balls, jar_x_m(tt), jar_radius_m, jar_half_m)
+                _draw(canvas, cam, balls, motion.place(tt, jar.center_m), jar)
                 acc += canvas
             acc = acc / len(offsets) + rng.normal(0.0, cam.noise_grey, acc.shape)
             yield np.clip(np.rint(acc), 0, 255).astype(np.uint8)

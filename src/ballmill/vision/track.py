@@ -1,17 +1,24 @@
 """Find and follow 1-2 balls in a high-speed video with OpenCV.
 
-Per frame: difference from a temporal-median background (any polarity: dark balls on a
-backlit jar or bright balls on a dark one; a thin moving jar outline does not survive the
-next step), a mask closed over specular highlights, distance-transform peaks as ball
-candidates (touching balls give two peaks), then a sub-pixel circle fit to edge points found
-along rays from each candidate (rays heading into the other ball are left out).  Identities
-follow the nearest previous position (Hungarian assignment, gated at one radius): a ball
-moves a few pixels per frame at 2134 fps, far less than its radius.
+Background: a per-pixel percentile over frames sampled through the video, on the side away
+from the balls (90th for dark balls on a backlit jar, 10th for bright balls on a dark one;
+`polarity="auto"` picks the side where frames depart most from the median).  A ball that
+leaves a pixel for over a tenth of the video is not part of it; the jar's moving outline is
+not either, and shows as a thin line in the difference.
+
+Per frame: the difference from the background, a mask closed over specular highlights,
+distance-transform peaks as ball candidates (touching balls give two peaks), then a
+sub-pixel circle fit to the half-contrast crossings along rays from each candidate (rays
+heading into the other ball are left out; edge points off the fit by over a pixel, e.g.
+where a ball touches the jar's outline, are dropped and the circle refitted).  Identities
+follow the nearest previous position (Hungarian assignment, gated at one radius): at 2134
+fps a ball moves a few pixels per frame, far less than its radius.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -26,21 +33,44 @@ from .frames import read_frames, read_meta
 class TrackerSettings:
     balls: int = 2
     ball_diameter_mm: float = 17.6
-    background_frames: int = 50  # frames spread over the video for the median background
-    rays: int = 72
+    polarity: str = "auto"  # "dark" balls on a bright background, "bright" on a dark one, or "auto"
+    background_frames: int = 100  # frames sampled through the video for the background
+    rays: int = 90
+    outlier_px: float = 1.0  # edge points farther than this from the fitted circle are dropped
+
+    def __post_init__(self):
+        if self.balls not in (1, 2):
+            raise ValueError(f"balls={self.balls}: the tracker follows 1 or 2 balls")
+        if self.polarity not in ("auto", "dark", "bright"):
+            raise ValueError(f"polarity={self.polarity!r} is not one of ['auto', 'dark', 'bright']")
+        if self.ball_diameter_mm <= 0:
+            raise ValueError(f"ball_diameter_mm={self.ball_diameter_mm} must be > 0")
 
 
-def background(frames: list[np.ndarray], n: int) -> np.ndarray:
-    """Per-pixel median of n frames spread over the sequence."""
-    pick = np.linspace(0, len(frames) - 1, min(n, len(frames))).astype(int)
-    return np.median(np.stack([frames[k] for k in pick]).astype(np.float32), axis=0)
+def sample_frames(frames, n: int) -> list[np.ndarray]:
+    """Between n and 2n frames evenly spaced through a stream of unknown length."""
+    keep, stride = [], 1
+    for k, frame in enumerate(frames):
+        if k % stride == 0:
+            keep.append(frame)
+            if len(keep) == 2 * n:
+                keep, stride = keep[::2], stride * 2
+    return keep
+
+
+def background(sample: list[np.ndarray], polarity: str) -> tuple[np.ndarray, str]:
+    """Background image (float32) and the balls' polarity ("dark" or "bright")."""
+    stack = np.stack(sample).astype(np.float32)
+    lo, med, hi = np.percentile(stack, [10, 50, 90], axis=0)
+    if polarity == "auto":
+        polarity = "dark" if (med - lo).sum() > (hi - med).sum() else "bright"
+    return (hi if polarity == "dark" else lo), polarity
 
 
 def candidates(diff: np.ndarray, r_px: float, n: int) -> list[np.ndarray]:
     """Up to n ball centres (x, y px) from distance-transform peaks of the foreground mask."""
     blur = cv2.GaussianBlur(diff, (0, 0), 1.5)
-    level = max(float(blur.max()) * 0.5, 10.0)
-    mask = (blur > level).astype(np.uint8)
+    mask = (blur > max(float(blur.max()) * 0.5, 10.0)).astype(np.uint8)
     k = max(3, int(r_px / 2) | 1)
     mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
     dist = cv2.distanceTransform(mask, cv2.DIST_L2, 5)
@@ -54,79 +84,103 @@ def candidates(diff: np.ndarray, r_px: float, n: int) -> list[np.ndarray]:
     return found
 
 
-def fit_circle(diff: np.ndarray, centre: np.ndarray, r_px: float, others: list[np.ndarray], rays: int):
-    """Sub-pixel centre and radius from edge points (half-contrast crossings) along rays."""
-    angles = np.linspace(0, 2 * np.pi, rays, endpoint=False)
-    radii = np.linspace(0.55 * r_px, 1.5 * r_px, 96)
-    pts = []
-    for a in angles:
-        d = np.array([np.cos(a), np.sin(a)])
-        if any(np.dot(o - centre, d) > 0 and np.linalg.norm(o - centre - np.dot(o - centre, d) * d) < r_px
-               and np.linalg.norm(o - centre) < 2.6 * r_px for o in others):
-            continue  # this ray runs into the neighbouring ball
-        xy = centre[:, None] + d[:, None] * radii
-        prof = map_coordinates(diff, [xy[1], xy[0]], order=1, mode="nearest")
-        inside = np.percentile(prof[:20], 75)
-        half = 0.5 * inside
-        below = np.nonzero(prof < half)[0]
-        below = below[below > 0]
-        if not len(below) or inside < 10:
-            continue
-        j = below[0]
-        f = (prof[j - 1] - half) / (prof[j - 1] - prof[j])
-        rr = radii[j - 1] + f * (radii[j] - radii[j - 1])
-        pts.append(centre + rr * d)
-    if len(pts) < 8:
-        return centre, float("nan")
-    p = np.array(pts)
-    a = np.column_stack([2 * p, np.ones(len(p))])
-    sol, *_ = np.linalg.lstsq(a, (p**2).sum(1), rcond=None)
+def _circle(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """Least-squares circle (Kasa) through points (n, 2): centre, radius."""
+    a = np.column_stack([2 * points, np.ones(len(points))])
+    sol, *_ = np.linalg.lstsq(a, (points**2).sum(1), rcond=None)
     return sol[:2], float(np.sqrt(sol[2] + sol[:2] @ sol[:2]))
 
 
-def track(path, settings: TrackerSettings, fps: float | None = None, mm_per_px: float | None = None) -> pd.DataFrame:
-    """Table of frame, time_s, ball, x_mm, y_mm (y up), radius_mm, speed_mm_per_s, lost."""
+def fit_circle(diff: np.ndarray, centre: np.ndarray, r_px: float, others: list[np.ndarray], settings: TrackerSettings):
+    """Sub-pixel centre and radius (px) from half-contrast crossings along rays; NaN radius if too few."""
+    ang = np.linspace(0, 2 * np.pi, settings.rays, endpoint=False)
+    d = np.column_stack([np.cos(ang), np.sin(ang)])
+    ok = np.ones(len(ang), bool)
+    for o in others:  # rays that would run into the neighbouring ball
+        rel = o - centre
+        along = d @ rel
+        ok &= ~((along > 0) & (np.abs(d[:, 0] * rel[1] - d[:, 1] * rel[0]) < 1.1 * r_px)
+                & (np.linalg.norm(rel) < 2.6 * r_px))
+    d = d[ok]
+    radii = np.linspace(0.55 * r_px, 1.5 * r_px, 120)
+    xy = centre[None, :, None] + d[:, :, None] * radii[None, None, :]  # (rays, 2, samples)
+    prof = map_coordinates(diff, [xy[:, 1].ravel(), xy[:, 0].ravel()], order=1, mode="nearest").reshape(len(d), -1)
+    inside = np.percentile(prof[:, :20], 75, axis=1)
+    half = 0.5 * inside[:, None]
+    below = (prof < half) & (np.arange(len(radii)) > 0)
+    j = np.argmax(below, axis=1)
+    valid = below[np.arange(len(d)), j] & (inside > 10)
+    if valid.sum() < 8:
+        return centre, float("nan")
+    d, j, prof, half = d[valid], j[valid], prof[valid], half[valid, 0]
+    p0, p1 = prof[np.arange(len(j)), j - 1], prof[np.arange(len(j)), j]
+    rr = radii[j - 1] + (p0 - half) / (p0 - p1) * (radii[1] - radii[0])
+    pts = centre + rr[:, None] * d
+    c, r = _circle(pts)
+    for _ in range(3):
+        keep = np.abs(np.linalg.norm(pts - c, axis=1) - r) < settings.outlier_px
+        if keep.sum() < 8 or keep.all():
+            break
+        pts = pts[keep]
+        c, r = _circle(pts)
+    return c, r
+
+
+def _assign(fitted: list, last: list, gate_px: float) -> dict[int, int]:
+    """Ball id -> index into fitted: nearest to each ball's last position within the gate."""
+    if all(p is None for p in last):  # first sight: left to right
+        order = sorted(range(len(fitted)), key=lambda i: fitted[i][0][0])
+        return dict(enumerate(order[:len(last)]))
+    known = [b for b, p in enumerate(last) if p is not None]
+    cost = np.array([[np.linalg.norm(f[0] - last[b]) for f in fitted] for b in known]).reshape(len(known), len(fitted))
+    rows, cols = linear_sum_assignment(cost) if cost.size else ((), ())
+    out = {known[r]: c for r, c in zip(rows, cols) if cost[r, c] < gate_px}
+    spare = [i for i in range(len(fitted)) if i not in out.values()]
+    for b, p in enumerate(last):  # a ball never seen yet takes a detection left over
+        if p is None and spare:
+            out[b] = spare.pop(0)
+    return out
+
+
+def track(path: str | Path, settings: TrackerSettings, fps: float | None = None,
+          mm_per_px: float | None = None) -> pd.DataFrame:
+    """Table of frame, time_s, ball, u_px, v_px, x_mm, y_mm (y up), radius_mm, vx/vy/speed (mm/s), lost.
+
+    The velocity of frame k is the displacement from frame k-1 times the capture rate, as the
+    paper measured it; frames where a ball was not found have lost=True and NaN positions.
+    """
     meta = read_meta(path)
     fps = fps or meta.get("capture_fps")
     mm_per_px = mm_per_px or meta.get("mm_per_px")
     if not fps or not mm_per_px:
-        raise ValueError("give fps=... and mm_per_px=... (no capture metadata beside the video)")
+        raise ValueError(f"video={path}: give fps=... and mm_per_px=... (no capture metadata beside it)")
     r_px = settings.ball_diameter_mm / 2 / mm_per_px
-    frames = list(read_frames(path))
-    bg = background(frames, settings.background_frames)
+    bg, polarity = background(sample_frames(read_frames(path), settings.background_frames), settings.polarity)
+    sign = 1.0 if polarity == "dark" else -1.0
     last: list[np.ndarray | None] = [None] * settings.balls
     rows = []
-    for k, frame in enumerate(frames):
-        diff = np.abs(frame.astype(np.float32) - bg)
+    height = bg.shape[0]
+    for k, frame in enumerate(read_frames(path)):
+        diff = np.maximum(sign * (bg - frame.astype(np.float32)), 0.0)
         found = candidates(diff, r_px, settings.balls)
-        fitted = []
-        for i, c in enumerate(found):
-            centre, radius = fit_circle(diff, c, r_px, [o for j, o in enumerate(found) if j != i], settings.rays)
-            fitted.append((centre, radius))
-        if k == 0 or any(p is None for p in last):
-            order = sorted(range(len(fitted)), key=lambda i: fitted[i][0][0])  # first sight: left to right
-            assign = {b: order[b] for b in range(min(len(order), settings.balls))}
-        else:
-            cost = np.array([[np.linalg.norm(f[0] - p) for f in fitted] for p in last]) if fitted else np.zeros((0, 0))
-            assign = {}
-            if cost.size:
-                for b, i in zip(*linear_sum_assignment(cost)):
-                    if cost[b, i] < r_px:
-                        assign[b] = i
+        fitted = [fit_circle(diff, c, r_px, found[:i] + found[i + 1:], settings) for i, c in enumerate(found)]
+        fitted = [f for f in fitted if np.isfinite(f[1])]
+        assign = _assign(fitted, last, r_px)
         for b in range(settings.balls):
             if b in assign:
-                centre, radius = fitted[assign[b]]
-                last[b] = centre
-                rows.append((k, b, centre[0], centre[1], radius, False))
+                (u, v), radius = fitted[assign[b]]
+                last[b] = np.array([u, v])
+                rows.append((k, b, u, v, radius, False))
             else:
                 rows.append((k, b, np.nan, np.nan, np.nan, True))
     df = pd.DataFrame(rows, columns=["frame", "ball", "u_px", "v_px", "radius_px", "lost"])
-    h = frame.shape[0]
-    df["time_s"] = df.frame / fps
+    df.insert(1, "time_s", df.frame / fps)
     df["x_mm"] = df.u_px * mm_per_px
-    df["y_mm"] = (h - df.v_px) * mm_per_px
+    df["y_mm"] = (height - df.v_px) * mm_per_px
     df["radius_mm"] = df.radius_px * mm_per_px
     df = df.sort_values(["ball", "frame"])
     step = df.groupby("ball")[["x_mm", "y_mm"]].diff()
-    df["speed_mm_per_s"] = np.hypot(step.x_mm, step.y_mm) * fps
+    df["vx_mm_per_s"], df["vy_mm_per_s"] = step.x_mm * fps, step.y_mm * fps
+    df["speed_mm_per_s"] = np.hypot(df.vx_mm_per_s, df.vy_mm_per_s)
+    df.attrs.update(capture_fps=fps, mm_per_px=mm_per_px, polarity=polarity)
     return df.sort_values(["frame", "ball"]).reset_index(drop=True)
