@@ -140,8 +140,24 @@ class MM400Config:
     camera_fps: float = rng(2134.0, 0.0, None, lo_open=True)
     duration_s: float = rng(2.0, 0.0, None, lo_open=True)
     settle_s: float = rng(0.2, 0.0, None, doc="start-up transient left out of the statistics")
-    collision_speed_jump_m_per_s: float = rng(0.3, 0.0, None, lo_open=True,
-                                              doc="frame-to-frame velocity change counted as a collision")
+    collision_speed_jump_m_per_s: float = rng(1.0, 0.0, None, lo_open=True,
+                                              doc="frame-to-frame velocity change counted as a collision; "
+                                                  "well above tracking noise (~0.2 m/s at 0.2 px)")
+
+
+@dataclass
+class CalibrationConfig:
+    """Grid of ball-wall (steel-PMMA) restitution and friction scored against tracked videos."""
+
+    restitutions: list[float] = field(default_factory=lambda: [0.3, 0.45, 0.6, 0.75, 0.9])
+    frictions: list[float] = field(default_factory=lambda: [0.1, 0.2, 0.3, 0.4, 0.5])
+    collision_weight: float = rng(1.0, 0.0, None, doc="weight of the collision-rate error beside the speed error")
+
+    def __post_init__(self):
+        for name, values, lo_open, hi in (("restitutions", self.restitutions, True, 1.0),
+                                          ("frictions", self.frictions, False, None)):
+            for i, v in enumerate(values):
+                _check_field(f"calibrate.{name}[{i}]", v, {"range": (0.0, hi, lo_open, False)})
 
 
 def register() -> None:
@@ -152,6 +168,7 @@ def register() -> None:
     cs.store(group="scaleup", name="base_scaleup", node=ScaleupConfig)
     cs.store(group="economics", name="base_economics", node=EconomicsConfig)
     cs.store(group="lab", name="base_mm400", node=MM400Config)
+    cs.store(group="calibrate", name="base_calibrate", node=CalibrationConfig)
 
 
 def _check_field(path: str, value, meta) -> None:

@@ -9,14 +9,18 @@ noise.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Iterator
 
 import cv2
 import numpy as np
 import pandas as pd
 
+from ..config import MM400Config
 from ..dem import Capsule, Motion
+from ..lab import Condition, jar_capsule, jar_motion
+from .frames import write_frames
 
 SHIFT = 4  # OpenCV fixed-point bits: sub-pixel drawing
 
@@ -64,20 +68,22 @@ def render(track: pd.DataFrame, radius_m: dict[int, float], jar: Capsule, motion
            cam: Camera) -> tuple[Iterator[np.ndarray], pd.DataFrame]:
     """Frames of one jar (axis along x) from a trajectory sampled at the camera rate.
 
-    `track` has columns t_s, particle, x_m, z_m; `motion` moves the jar.  Returns the frames (a
-    generator) and the truth: each ball's centre (px) averaged over the exposure, as the image
-    shows it.
+    `track` has columns t_s, particle, x_m, y_m, z_m; the camera looks along +y (nearer balls,
+    smaller y, hide farther ones); `motion` moves the jar.  Returns the frames (a generator) and
+    the truth: each ball's centre (px) averaged over the exposure, as the image shows it.
     """
     times = np.sort(track.t_s.unique())
-    wide = {c: track.pivot(index="t_s", columns="particle", values=c).loc[times] for c in ("x_m", "z_m")}
+    wide = {c: track.pivot(index="t_s", columns="particle", values=c).loc[times] for c in ("x_m", "y_m", "z_m")}
     ids = list(wide["x_m"].columns)
-    frame_dt = 1.0 / cam.fps
-    offsets = -cam.exposure_fraction * frame_dt * (1 - (np.arange(cam.blur_samples) + 0.5) / cam.blur_samples)
+    offsets = -cam.exposure_fraction / cam.fps * (1 - (np.arange(cam.blur_samples) + 0.5) / cam.blur_samples)
+
+    def at(tt, p, c):
+        return np.interp(tt, times, wide[c][p])
+
     truth = []
     for t in times:
         for p in ids:
-            tt = t + offsets
-            u, v = cam.to_px(np.interp(tt, times, wide["x_m"][p]), np.interp(tt, times, wide["z_m"][p]))
+            u, v = cam.to_px(at(t + offsets, p, "x_m"), at(t + offsets, p, "z_m"))
             truth.append({"t_s": t, "particle": p, "u_px": u.mean(), "v_px": v.mean()})
 
     def frames():
@@ -85,13 +91,40 @@ def render(track: pd.DataFrame, radius_m: dict[int, float], jar: Capsule, motion
         canvas = np.zeros((cam.height_px, cam.width_px), np.uint8)
         for t in times:
             acc = np.zeros(canvas.shape, np.float64)
-            for dt in offsets:
-                tt = t + dt
-                balls = [(np.interp(tt, times, wide["x_m"][p]), np.interp(tt, times, wide["z_m"][p]), radius_m[p])
-                         for p in ids]
+            for tt in t + offsets:
+                far_first = sorted(ids, key=lambda p: -at(tt, p, "y_m"))
+                balls = [(at(tt, p, "x_m"), at(tt, p, "z_m"), radius_m[p]) for p in far_first]
                 _draw(canvas, cam, balls, motion.place(tt, jar.center_m), jar)
                 acc += canvas
             acc = acc / len(offsets) + rng.normal(0.0, cam.noise_grey, acc.shape)
             yield np.clip(np.rint(acc), 0, 255).astype(np.uint8)
 
     return frames(), pd.DataFrame(truth)
+
+
+def render_lab_videos(folder: str | Path, lab: MM400Config, conds: list[Condition], trajectories: pd.DataFrame,
+                      cam: Camera) -> pd.DataFrame:
+    """One video per simulated condition (after lab.settle_s), its truth table and a videos.csv manifest.
+
+    The camera is sized to the jar's reach and runs at the lab's camera rate.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    jar = jar_capsule(lab)
+    reach_m = jar.half_length_m + jar.radius_m + 2 * lab.amplitude_m
+    cam = replace(cam, fps=lab.camera_fps, width_px=int(2.3 * reach_m * 1e3 / cam.mm_per_px),
+                  height_px=int(3.0 * jar.radius_m * 1e3 / cam.mm_per_px))
+    rows = []
+    for k, c in enumerate(conds):
+        traj = trajectories[(trajectories.replica == k) & (trajectories.t_s > lab.settle_s)]
+        frames, truth = render(traj, {p: c.ball_diameter_m / 2 for p in traj.particle.unique()}, jar,
+                               jar_motion(lab, c.frequency_hz), cam)
+        name = f"mm400_{k:03d}.avi"
+        write_frames(frames, folder / name, cam.fps, cam.mm_per_px)
+        truth.to_csv(folder / f"{name}.truth.csv", index=False)
+        rows.append({"file": name, "frequency_hz": c.frequency_hz, "ball_diameter_mm": c.ball_diameter_m * 1e3,
+                     "balls": lab.balls_per_jar, "wall_restitution": c.wall_restitution,
+                     "wall_friction": c.wall_friction})
+    manifest = pd.DataFrame(rows)
+    manifest.to_csv(folder / "videos.csv", index=False)
+    return manifest

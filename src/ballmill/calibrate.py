@@ -1,0 +1,126 @@
+"""Calibrate the MM400 model's ball-wall restitution and friction against tracked videos.
+
+A folder of videos carries a manifest, `videos.csv` (file, frequency_hz, ball_diameter_mm,
+balls; optional fps and mm_per_px where a video has no capture sidecar).  Each video is
+tracked once (the table is kept beside it as `<file>.track.csv`) and reduced to an
+observation: mean frame-to-frame ball speed and video collisions per second, counted exactly
+as lab.summarise counts them on simulated trajectories.
+
+Grid search: every (restitution, friction) pair of the grid runs every observed condition,
+all as replicas of one Taichi launch per ball count; the score of a pair is the mean over
+conditions of (relative speed error)^2 + collision_weight * (relative collision-rate error)^2.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .config import CalibrationConfig, ConfigError, InteractionConfig, MM400Config, SimConfig
+from .lab import Condition, frame_speeds, simulate_mm400, summarise, video_collisions
+from .vision.track import TrackerSettings, track
+
+log = logging.getLogger(__name__)
+MANIFEST = "videos.csv"
+KEYS = ["balls", "frequency_hz", "ball_diameter_m"]
+
+
+def read_manifest(folder: str | Path) -> pd.DataFrame:
+    folder = Path(folder)
+    path = folder / MANIFEST
+    if not path.exists():
+        raise FileNotFoundError(f"videos={folder}: no {MANIFEST} (columns file, frequency_hz, ball_diameter_mm, balls)")
+    df = pd.read_csv(path)
+    missing = {"file", "frequency_hz", "ball_diameter_mm", "balls"} - set(df.columns)
+    if missing:
+        raise ConfigError(f"{path}: missing columns {sorted(missing)}")
+    return df
+
+
+def observe(tracked: pd.DataFrame, fps: float, jump_m_per_s: float) -> dict:
+    """Mean frame-to-frame speed (m/s) and video collisions per s from a tracker table."""
+    as_sim = pd.DataFrame({"t_s": tracked.time_s, "replica": 0, "particle": tracked.ball,
+                           "x_m": tracked.x_mm / 1e3, "z_m": tracked.y_mm / 1e3})
+    fs = frame_speeds(as_sim, fps)
+    span = tracked.time_s.max() - tracked.time_s.min()
+    return {"mean_speed_m_per_s": float(fs.speed.mean()),
+            "video_collisions_per_s": video_collisions(fs, jump_m_per_s) / span,
+            "frames": int(tracked.frame.nunique()), "lost_ball_frames": int(tracked.lost.sum())}
+
+
+def observations(folder: str | Path, lab: MM400Config) -> pd.DataFrame:
+    """One row per video of the manifest: its condition and what tracking measured."""
+    folder = Path(folder)
+    rows = []
+    for v in read_manifest(folder).itertuples():
+        video = folder / v.file
+        cached = video.with_name(video.name + ".track.csv")
+        fps = getattr(v, "fps", None)
+        if cached.exists():
+            table = pd.read_csv(cached)
+        else:
+            log.info("tracking %s", video)
+            table = track(video, TrackerSettings(balls=int(v.balls), ball_diameter_mm=float(v.ball_diameter_mm)),
+                          fps=fps, mm_per_px=getattr(v, "mm_per_px", None))
+            table.to_csv(cached, index=False)
+        fps = fps or 1.0 / np.median(np.diff(np.sort(table.time_s.unique())))
+        rows.append({"file": v.file, "balls": int(v.balls), "frequency_hz": float(v.frequency_hz),
+                     "ball_diameter_m": float(v.ball_diameter_mm) / 1e3,
+                     **observe(table, fps, lab.collision_speed_jump_m_per_s)})
+    return pd.DataFrame(rows)
+
+
+def simulate_grid(obs: pd.DataFrame, lab: MM400Config, pairs: list[tuple[float, float]], materials,
+                  interactions: dict[str, InteractionConfig], sim: SimConfig) -> pd.DataFrame:
+    """Simulated statistics of every observed condition at every (restitution, friction) pair."""
+    out = []
+    for balls, group in obs.groupby("balls"):
+        conds = [Condition(r.frequency_hz, r.ball_diameter_m, e, mu) for r in group.itertuples() for e, mu in pairs]
+        cfg = replace(lab, balls_per_jar=int(balls))
+        traj, collisions = simulate_mm400(cfg, conds, materials, interactions, sim)
+        out.append(summarise(traj, collisions, cfg, conds).assign(balls=int(balls)))
+    return pd.concat(out, ignore_index=True)
+
+
+def score(sim: pd.DataFrame, obs: pd.DataFrame, collision_weight: float) -> pd.DataFrame:
+    """Per (restitution, friction): speed and collision-rate errors and the score (lower is better)."""
+    m = sim.merge(obs, on=KEYS, suffixes=("_sim", "_obs"))
+    m["speed_error"] = m.mean_speed_m_per_s_sim / m.mean_speed_m_per_s_obs - 1
+    m["collision_error"] = (m.video_collisions_per_s_sim - m.video_collisions_per_s_obs) / np.maximum(
+        m.video_collisions_per_s_obs, 1.0)
+    m["score"] = m.speed_error**2 + collision_weight * m.collision_error**2
+    return (m.groupby(["wall_restitution", "wall_friction"])[["speed_error", "collision_error", "score"]]
+            .agg({"speed_error": lambda s: float(np.sqrt((s**2).mean())),
+                  "collision_error": lambda s: float(np.sqrt((s**2).mean())), "score": "mean"})
+            .reset_index().rename(columns={"speed_error": "speed_rms_error", "collision_error": "collision_rms_error"}))
+
+
+def calibrate(obs: pd.DataFrame, lab: MM400Config, grid: CalibrationConfig, materials,
+              interactions: dict[str, InteractionConfig], sim: SimConfig) -> tuple[pd.DataFrame, pd.DataFrame, dict]:
+    """Score surface, the simulated table behind it, and the best pair with its sensitivity."""
+    pairs = [(e, mu) for e in grid.restitutions for mu in grid.frictions]
+    log.info("calibration: %d pairs x %d conditions", len(pairs), len(obs))
+    simulated = simulate_grid(obs, lab, pairs, materials, interactions, sim)
+    surface = score(simulated, obs, grid.collision_weight)
+    best = surface.loc[surface.score.idxmin()]
+    result = {"wall_restitution": float(best.wall_restitution), "wall_friction": float(best.wall_friction),
+              "score": float(best.score), "speed_rms_error": float(best.speed_rms_error),
+              "collision_rms_error": float(best.collision_rms_error), **sensitivity(simulated, best)}
+    return surface, simulated, result
+
+
+def sensitivity(simulated: pd.DataFrame, best) -> dict:
+    """Relative change of mean speed and collision rate per unit restitution and friction near the best pair
+    (least-squares slopes over the grid lines through it)."""
+    out = {}
+    for var, fixed in (("wall_restitution", "wall_friction"), ("wall_friction", "wall_restitution")):
+        line = simulated[np.isclose(simulated[fixed], best[fixed])].groupby(var)[
+            ["mean_speed_m_per_s", "video_collisions_per_s"]].mean()
+        for col, name in (("mean_speed_m_per_s", "speed"), ("video_collisions_per_s", "collisions")):
+            slope = np.polyfit(line.index, line[col], 1)[0] if len(line) > 1 else float("nan")
+            out[f"d_{name}_d_{var.removeprefix('wall_')}_relative"] = float(slope / max(line[col].mean(), 1e-12))
+    return out
