@@ -56,6 +56,14 @@ def conditions(cfg: MM400Config, restitutions, frictions) -> list[Condition]:
     return [Condition(*c) for c in itertools.product(cfg.frequencies_hz, cfg.ball_diameters_m, restitutions, frictions)]
 
 
+def wall_interaction(interactions: dict[str, InteractionConfig], cfg: MM400Config) -> InteractionConfig:
+    """The ball-wall entry of an 'a-b' keyed interaction table (either order)."""
+    for key in (f"{cfg.ball_material}-{cfg.wall_material}", f"{cfg.wall_material}-{cfg.ball_material}"):
+        if key in interactions:
+            return interactions[key]
+    raise ConfigError(f"interactions: no entry '{cfg.ball_material}-{cfg.wall_material}' for the jar wall")
+
+
 def mm400_system(cfg: MM400Config, conds: list[Condition], materials, interactions, seed: int) -> SystemSpec:
     """One replica per condition; balls start near the jar's bottom with tiny random speeds."""
     radius_jar, half = cfg.jar_inner_diameter_m / 2, jar_half_length_m(cfg)

@@ -65,3 +65,39 @@ def plot_fig4(table: pd.DataFrame):
     ax.set_title("South Atlantic states, NAPCOR 2018 PET split by population, BPR 20")
     fig.legend(loc="upper right", bbox_to_anchor=(0.88, 0.88))
     return fig
+
+
+def plot_score_surface(surface: pd.DataFrame, best: dict):
+    """Calibration score over the restitution x friction grid (log colour), best pair marked."""
+    import numpy as np
+
+    grid = surface.pivot(index="wall_restitution", columns="wall_friction", values="score")
+    fig, ax = plt.subplots(figsize=(5.5, 4.5))
+    mesh = ax.pcolormesh(grid.columns, grid.index, np.log10(grid.to_numpy()), shading="nearest", cmap="viridis_r")
+    fig.colorbar(mesh, ax=ax, label="log10 score (mean squared relative error)")
+    ax.plot(best["wall_friction"], best["wall_restitution"], "r*", ms=14, label="best")
+    ax.set_xlabel("ball-wall static friction")
+    ax.set_ylabel("ball-wall restitution")
+    ax.legend(loc="upper right")
+    ax.set_title("MM400 calibration: simulated vs tracked")
+    return fig
+
+
+def plot_lab_validation(simulated: pd.DataFrame, observed: pd.DataFrame | None = None):
+    """Paper Fig. 3a: mean ball speed vs frequency per ball size and count; simulation lines,
+    tracked videos as markers."""
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    groups = simulated.groupby(["balls", "ball_diameter_m"])
+    for k, ((balls, d), g) in enumerate(groups):
+        g = g.sort_values("frequency_hz")
+        label = f"{balls} x {d * 1e3:.1f} mm"
+        ax.plot(g.frequency_hz, g.mean_speed_m_per_s, "-", color=f"C{k}", label=f"DEM {label}")
+        o = None if observed is None else observed[(observed.balls == balls)
+                                                   & ((observed.ball_diameter_m - d).abs() < 1e-9)]
+        if o is not None and len(o):
+            ax.plot(o.frequency_hz, o.mean_speed_m_per_s, "o", mfc="none", color=f"C{k}", label=f"tracked {label}")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("mean ball speed, frame to frame (m/s)")
+    ax.legend(fontsize=8)
+    ax.set_title("MM400: mean ball speed")
+    return fig

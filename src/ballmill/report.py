@@ -10,12 +10,13 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
 from .data import DATA_DIR, table
-from .plots import plot_fig3b, plot_fig4, save_figure
+from .plots import plot_fig3b, plot_fig4, plot_lab_validation, save_figure
 
 FIGURES = {"fig3b": plot_fig3b, "fig4": plot_fig4}
 SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv"]
@@ -81,6 +82,40 @@ COLUMNS = ["bpr", "region", "pet_feed_kg_per_h", "naoh_feed_kg_per_h", "diameter
            "electricity_usd_per_t_pet", "purchase_cost_usd", "purchase_cost_usd_per_kg_per_h", "yield_percent"]
 
 
+def lab_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
+    """MM400 runs: their summaries in one table, the speed-vs-frequency figure, geometry slopes."""
+    sim = pd.concat([pd.read_csv(Path(d) / "lab_summary.csv").assign(job_dir=d, **_overrides(o))
+                     for d, o in zip(ok.job_dir, ok.overrides)], ignore_index=True)
+    write_table(sim, out_dir / f"{name}_conditions")
+    paths = ok.observations.dropna().unique() if "observations" in ok else []
+    observed = pd.read_csv(paths[0]) if len(paths) else None
+    save_figure(plot_lab_validation(sim, observed), out_dir / name)
+    cols = [c for c in ["balls", "frequency_hz", "ball_diameter_m", "wall_restitution", "wall_friction",
+                        *[k for k in sim.columns if k.startswith("lab.")], "mean_speed_m_per_s",
+                        "video_collisions_per_s", "ball_wall_collisions_per_s", "mean_impact_energy_j"] if c in sim]
+    lines = [f"![{name}]({name}.png)", "", sim[cols].to_markdown(index=False, floatfmt=".4g"), ""]
+    geometry = [k for k in sim.columns if k.startswith("lab.") and sim[k].nunique() > 1]
+    if geometry:
+        x = sim[geometry].astype(float)
+        x = (x - x.mean()) / x.mean()
+        coef, *_ = np.linalg.lstsq(np.column_stack([x, np.ones(len(x))]), sim.mean_speed_m_per_s, rcond=None)
+        lines += ["Relative change of mean speed per relative change of each input (least-squares):", ""]
+        lines += [f"- {k}: {c / coef[-1]:+.2f}" for k, c in zip(geometry, coef[:-1])] + [""]
+    return lines
+
+
+def _overrides(text) -> dict:
+    """Swept numeric overrides of a job ('a.b=1.5 c=2') as columns."""
+    out = {}
+    for item in str(text or "").split():
+        key, _, value = item.partition("=")
+        try:
+            out[key.lstrip("+")] = float(value)
+        except ValueError:
+            pass
+    return {k: v for k, v in out.items() if k.startswith("lab.") and k != "lab.balls_per_jar"}
+
+
 def report(sweep_dir: Path, out_dir: Path) -> Path:
     df = collect(sweep_dir)
     name = str(df.study.iloc[0])
@@ -89,11 +124,13 @@ def report(sweep_dir: Path, out_dir: Path) -> Path:
     ok = df[df.status == "ok"]
     failed = df[df.status != "ok"]
     lines = [f"# {name}: {len(ok)} finished, {len(failed)} failed runs", "", f"Sweep folder: `{sweep_dir}`", ""]
-    if len(ok) and name in FIGURES:
+    if len(ok) and (ok.kind == "lab").all():
+        lines += lab_lines(name, ok, out_dir)
+    elif len(ok) and name in FIGURES:
         save_figure(FIGURES[name](ok), out_dir / name)
         lines += [f"![{name}]({name}.png)", ""]
-    if len(ok):
-        cols = [c for c in COLUMNS if c in ok.columns]
+    cols = [c for c in COLUMNS if c in ok.columns]
+    if len(ok) and cols:
         lines += [ok[cols].to_markdown(index=False, floatfmt=".4g"), ""]
         if "margin_usd_per_t_tpa" in ok:
             lines += ["## Against the paper", ""] + paper_comparison(name, ok) + [""]

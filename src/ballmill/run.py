@@ -2,6 +2,7 @@
 
 A design run: feed -> scale-up -> DEM of the rotating mill -> power -> economics.
 A drum run: the configured drum -> torque and power over time.
+A lab run: the MM400 at every configured frequency and ball size -> lab_summary.csv.
 Failures are recorded (status, message) instead of raised, so a sweep carries on; a job
 whose folder already holds a finished record is skipped, so a sweep can be resumed.
 """
@@ -24,10 +25,11 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
 from . import __version__
-from .config import (ConfigError, DrumConfig, EconomicsConfig, InteractionConfig, MaterialConfig, ScaleupConfig,
-                     SimConfig, register, to_object)
+from .config import (ConfigError, DrumConfig, EconomicsConfig, InteractionConfig, MaterialConfig, MM400Config,
+                     ScaleupConfig, SimConfig, register, to_object)
 from .drum import dem_key, simulate_drum
 from .economics import bond_rowland_power_w, evaluate, yield_percent
+from .lab import conditions, simulate_mm400, summarise, wall_interaction
 from .plots import plot_drum_loads, save_figure
 from .scaleup import design_mill
 
@@ -60,9 +62,12 @@ def run(cfg: DictConfig, out_dir: Path) -> dict:
     pairs = {k: to_object(v, InteractionConfig, f"interactions.{k}") for k, v in cfg.interactions.items()}
     drum = to_object(cfg.mill, DrumConfig, "mill")
     kind = cfg.study.kind
-    if kind not in ("design", "drum"):
-        raise ConfigError(f"study.kind={kind!r} is not one of ['design', 'drum']")
+    if kind not in ("design", "drum", "lab"):
+        raise ConfigError(f"study.kind={kind!r} is not one of ['design', 'drum', 'lab']")
     record: dict = {"study": cfg.study.name, "kind": kind}
+    if kind == "lab":
+        return record | run_lab(to_object(cfg.lab, MM400Config, "lab"), materials, pairs, sim, out_dir,
+                                cfg.study.get("observations"))
     if kind == "design":
         scale = to_object(cfg.scaleup, ScaleupConfig, "scaleup")
         econ = to_object(cfg.economics, EconomicsConfig, "economics")
@@ -84,6 +89,17 @@ def run(cfg: DictConfig, out_dir: Path) -> dict:
             design.diameter_m, design.ball_mass_kg, scale.fill_fraction, design.fraction_of_critical,
             2 * design.ball_radius_m)
     return record
+
+
+def run_lab(lab: MM400Config, materials, pairs, sim: SimConfig, out_dir: Path, observations: str | None) -> dict:
+    """MM400 at the configured ball-wall pair: one summary row per frequency x ball size."""
+    pair = wall_interaction(pairs, lab)
+    conds = conditions(lab, [pair.restitution], [pair.static_friction])
+    traj, collisions = simulate_mm400(lab, conds, materials, pairs, sim)
+    summarise(traj, collisions, lab, conds).assign(balls=lab.balls_per_jar).to_csv(out_dir / "lab_summary.csv",
+                                                                                    index=False)
+    return {"balls": lab.balls_per_jar, "wall_restitution": pair.restitution,
+            "wall_friction": pair.static_friction, "conditions": len(conds), "observations": observations}
 
 
 def write_record(record: dict, out_dir: Path) -> None:
