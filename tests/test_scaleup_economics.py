@@ -6,8 +6,7 @@ from dataclasses import replace
 import pytest
 
 from ballmill.config import ConfigError, EconomicsConfig, ScaleupConfig
-from ballmill.economics import (bond_rowland_power_w, electricity, margin_usd_per_t_tpa, purchase_cost_usd,
-                                yield_percent)
+from ballmill.economics import bond_rowland_power_w, electricity, margin_usd_per_t_tpa, purchase_cost_usd, yield_percent
 from ballmill.scaleup import design_mill, regional_pet_feed_kg_per_h, stoichiometric_naoh_kg_per_h
 
 ECON = EconomicsConfig()

@@ -23,7 +23,7 @@ DEM = ["dem_power_w", "electricity_usd_per_t_pet"]
 
 def ballmill(*args, cwd):
     cmd = [sys.executable, "-c", "from ballmill.cli import main; main()", *args]
-    return subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=1200)
+    return subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=1200, check=False)
 
 
 @pytest.fixture(scope="module")
@@ -63,6 +63,15 @@ def test_rerunning_a_finished_sweep_recomputes_nothing(sweeps):
     assert proc.returncode == 0
     assert proc.stdout.count("skipped") + proc.stderr.count("skipped") == 7
     assert json.loads(job.read_text())["wall_time_s"] == before
+
+
+def test_a_changed_config_reruns_its_jobs_and_reuses_cached_dem(sweeps):
+    proc = ballmill("run", "+sweep=fig3b", "sim=ci", "sim.threads=2", f"hydra.sweep.dir={sweeps / 'fig3b'}",
+                    f"cache_dir={sweeps / 'cache'}", cwd=sweeps)
+    assert proc.returncode == 0
+    log = proc.stdout + proc.stderr
+    assert log.count("record of another config: rerunning") == 7
+    assert log.count("reusing the DEM result") == 7  # threads do not change a DEM result
 
 
 def test_failed_job_is_recorded_and_the_sweep_carries_on(tmp_path):

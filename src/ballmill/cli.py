@@ -13,7 +13,6 @@ import logging
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
 
 USAGE = """usage: ballmill COMMAND [ARGS]
   run [hydra overrides]      one scenario, or a sweep with -m / +sweep=NAME (files in sweep/)
@@ -31,12 +30,12 @@ USAGE = """usage: ballmill COMMAND [ARGS]
 @dataclass
 class TrackArgs:
     video: str = "???"
-    fps: Optional[float] = None  # capture rate; else the video's capture.json / .json sidecar
-    mm_per_px: Optional[float] = None
+    fps: float | None = None  # capture rate; else the video's capture.json / .json sidecar
+    mm_per_px: float | None = None
     balls: int = 2
     ball_diameter_mm: float = 17.6
     polarity: str = "auto"
-    out: Optional[str] = None  # default: <video>.track.csv
+    out: str | None = None  # default: <video>.track.csv
 
 
 @dataclass
@@ -58,12 +57,13 @@ class CalibrateArgs:
 def parse(schema, args: list[str]):
     """(the schema's options, the remaining Hydra overrides) from key=value arguments."""
     from omegaconf import OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
 
     names = {f.name for f in dataclasses.fields(schema)}
     own = [a for a in args if a.split("=", 1)[0] in names]
     try:
         opts = OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(schema), OmegaConf.from_dotlist(own)))
-    except Exception as exc:
+    except OmegaConfBaseException as exc:  # names the key and the expected type
         sys.exit(f"ballmill: {exc}")
     return opts, [a for a in args if a not in own]
 
@@ -74,7 +74,15 @@ def compose(overrides: list[str]):
     from hydra import compose as hydra_compose
     from hydra import initialize_config_dir
 
-    from .config import CalibrationConfig, InteractionConfig, MaterialConfig, MM400Config, SimConfig, register, to_object
+    from .config import (
+        CalibrationConfig,
+        InteractionConfig,
+        MaterialConfig,
+        MM400Config,
+        SimConfig,
+        register,
+        to_object,
+    )
     from .run import ROOT
 
     register()
@@ -143,7 +151,8 @@ def main() -> None:
         return
     cmd, rest = sys.argv[1], sys.argv[2:]
     if cmd == "run":
-        from .run import ROOT, main as run_main
+        from .run import ROOT
+        from .run import main as run_main
 
         sys.argv = [f"{sys.argv[0]} run", *rest, f"hydra.searchpath=[file://{ROOT}]"]
         run_main()

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Optional
 
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig, OmegaConf
@@ -47,7 +46,7 @@ class SimConfig:
     threads: int = rng(0, 0, None, doc="CPU threads for Taichi; 0 = all cores")
     seed: int = rng(0, 0, None)
     dt_fraction: float = rng(0.2, 0.0, 1.0, lo_open=True, doc="time step as a fraction of Rayleigh's")
-    dt_s: Optional[float] = rng(None, 0.0, None, lo_open=True, doc="explicit time step (s), overrides dt_fraction")
+    dt_s: float | None = rng(None, 0.0, None, lo_open=True, doc="explicit time step (s), overrides dt_fraction")
     shear_modulus_scale: float = rng(1.0, 0.0, 1.0, lo_open=True, doc="stiffness reduction for speed (1 = physical)")
     settle_s: float = rng(0.5, 0.0, None, doc="time the charge settles before the vessel moves (s)")
     duration_s: float = rng(1.0, 0.0, None, lo_open=True, doc="time simulated after settling (s)")
@@ -68,11 +67,11 @@ class DrumConfig:
     ball_radius_m: float = rng(0.005, 0.0, None, lo_open=True)
     fill_fraction: float = rng(0.3, 0.0, 1.0, lo_open=True, hi_open=True, doc="ball bed volume / mill volume")
     bed_porosity: float = rng(0.4, 0.0, 1.0, hi_open=True)
-    ball_count: Optional[int] = rng(None, 1, None, doc="overrides fill_fraction and bed_porosity")
-    speed_rpm: Optional[float] = rng(None, 0.0, None, doc="explicit speed; else fraction_of_critical")
+    ball_count: int | None = rng(None, 1, None, doc="overrides fill_fraction and bed_porosity")
+    speed_rpm: float | None = rng(None, 0.0, None, doc="explicit speed; else fraction_of_critical")
     fraction_of_critical: float = rng(0.7, 0.0, 1.5, lo_open=True)
     geometry: str = field(default="analytic", metadata={"choices": ("analytic", "stl")})
-    stl_path: Optional[str] = None
+    stl_path: str | None = None
     stl_segments: int = rng(128, 8, None, doc="facets around a generated STL drum")
     ball_material: str = "steel"
     wall_material: str = "steel"
@@ -83,11 +82,11 @@ class ScaleupConfig:
     """Feed and charge to mill size (paper: 20 min, 30 % fill, 80 mm ball radius, 15 rpm)."""
 
     pet_feed_kg_per_h: float = rng(1000.0, 0.0, None, lo_open=True)
-    region: Optional[str] = field(default=None, metadata={"doc": "state code: feed = national PET x population share"})
+    region: str | None = field(default=None, metadata={"doc": "state code: feed = national PET x population share"})
     napcor_quantity: str = field(default="bottles_collected", metadata={
         "choices": ("bottles_collected", "bought_by_us_reclaimers", "available_for_recycling")})
     operating_hours_per_year: float = rng(7920.0, 0.0, 8784.0, lo_open=True)
-    naoh_feed_kg_per_h: Optional[float] = rng(None, 0.0, None, doc="explicit NaOH feed; else naoh_to_stoichiometric")
+    naoh_feed_kg_per_h: float | None = rng(None, 0.0, None, doc="explicit NaOH feed; else naoh_to_stoichiometric")
     naoh_to_stoichiometric: float = rng(1.0, 0.0, None, lo_open=True, doc="NaOH feed / 2 mol per PET repeat unit")
     bpr: float = rng(19.0, 0.0, None, lo_open=True, doc="ball mass / reactant (PET + NaOH) mass")
     residence_time_min: float = rng(20.0, 0.0, None, lo_open=True)

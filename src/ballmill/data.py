@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import pandas as pd
@@ -10,7 +10,7 @@ import pandas as pd
 DATA_DIR = Path(__file__).resolve().parents[2] / "data"
 
 
-@lru_cache(maxsize=None)
+@cache
 def table(name: str) -> pd.DataFrame:
     """A data/ table; raises with the folder's listing when it is missing."""
     path = DATA_DIR / name

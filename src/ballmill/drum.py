@@ -13,8 +13,20 @@ from pathlib import Path
 import numpy as np
 
 from .config import ConfigError, DrumConfig, InteractionConfig, MaterialConfig, SimConfig
-from .dem import Body, Cylinder, Engine, EngineOptions, Interaction, Material, Mesh, Motion, Plane, Recorder
-from .dem import SystemSpec, init_taichi
+from .dem import (
+    Body,
+    Cylinder,
+    Engine,
+    EngineOptions,
+    Interaction,
+    Material,
+    Mesh,
+    Motion,
+    Plane,
+    Recorder,
+    SystemSpec,
+    init_taichi,
+)
 from .scaleup import critical_speed_rpm
 
 log = logging.getLogger(__name__)

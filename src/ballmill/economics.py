@@ -8,7 +8,6 @@ Margin per tonne TPA: products (TPA, EG) less reactants (PET, NaOH, H2SO4) by st
 
 from __future__ import annotations
 
-
 from .config import ConfigError, EconomicsConfig
 from .data import lookup
 

@@ -63,13 +63,13 @@ def paper_comparison(name: str, ok: pd.DataFrame) -> list[str]:
 
     if name == "fig3b":
         lines += [
-            f"| purchase cost, 1000 kg/h ($) | {paper['purchase_cost_1000_kg_per_h']:,.0f} | "
-            f"{ok.purchase_cost_usd.iloc[0]:,.0f} |",
+            (f"| purchase cost, 1000 kg/h ($) | {paper['purchase_cost_1000_kg_per_h']:,.0f} | "
+            f"{ok.purchase_cost_usd.iloc[0]:,.0f} |"),
             f"| yield at BPR 19 (%) | {paper['yield_bpr_19']} | {at_bpr(19, 'yield_percent')} |",
-            f"| electricity at BPR 19 ($/t PET) | {paper['electricity_bpr_19']} | "
-            f"{at_bpr(19, 'electricity_usd_per_t_pet')} |",
-            f"| electricity at BPR 22.9 ($/t PET) | {paper['electricity_bpr_22.9']} | "
-            f"{at_bpr(22.9, 'electricity_usd_per_t_pet')} |",
+            (f"| electricity at BPR 19 ($/t PET) | {paper['electricity_bpr_19']} | "
+            f"{at_bpr(19, 'electricity_usd_per_t_pet')} |"),
+            (f"| electricity at BPR 22.9 ($/t PET) | {paper['electricity_bpr_22.9']} | "
+            f"{at_bpr(22.9, 'electricity_usd_per_t_pet')} |"),
         ]
     if name == "fig4":
         lines.append(f"| yield at BPR 20 (%) | {paper['yield_bpr_20']} | {ok.yield_percent.iloc[0]:.1f} |")
@@ -77,8 +77,8 @@ def paper_comparison(name: str, ok: pd.DataFrame) -> list[str]:
     return lines
 
 
-COLUMNS = ["bpr", "region", "pet_feed_kg_per_h", "naoh_feed_kg_per_h", "diameter_m", "length_m", "ball_count",
-           "fraction_of_critical", "dem_power_w", "dem_power_se_w", "bond_rowland_power_w", "electricity_usd_per_yr",
+COLUMNS = ["bpr", "region", "shape_rule", "pet_feed_kg_per_h", "naoh_feed_kg_per_h", "diameter_m", "length_m",
+           "ball_count", "fraction_of_critical", "dem_dt_s", "dem_power_w", "dem_power_se_w", "bond_rowland_power_w", "electricity_usd_per_yr",
            "electricity_usd_per_t_pet", "purchase_cost_usd", "purchase_cost_usd_per_kg_per_h", "yield_percent"]
 
 

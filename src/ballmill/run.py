@@ -4,7 +4,8 @@ A design run: feed -> scale-up -> DEM of the rotating mill -> power -> economics
 A drum run: the configured drum -> torque and power over time.
 A lab run: the MM400 at every configured frequency and ball size -> lab_summary.csv.
 Failures are recorded (status, message) instead of raised, so a sweep carries on; a job
-whose folder already holds a finished record is skipped, so a sweep can be resumed.
+whose folder already holds a finished record of the same resolved config is skipped, so a
+sweep can be resumed (and one rerun with, say, another sim reruns every job).
 """
 
 from __future__ import annotations
@@ -25,8 +26,18 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
 from . import __version__
-from .config import (ConfigError, DrumConfig, EconomicsConfig, InteractionConfig, MaterialConfig, MM400Config,
-                     ScaleupConfig, SimConfig, register, to_object)
+from .config import (
+    ConfigError,
+    DrumConfig,
+    EconomicsConfig,
+    InteractionConfig,
+    MaterialConfig,
+    MM400Config,
+    ScaleupConfig,
+    SimConfig,
+    register,
+    to_object,
+)
 from .drum import dem_key, simulate_drum
 from .economics import bond_rowland_power_w, evaluate, yield_percent
 from .lab import conditions, simulate_mm400, summarise, wall_interaction
@@ -45,7 +56,7 @@ def provenance(sim) -> dict:
 
     try:
         commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True,
-                                timeout=10).stdout.strip()
+                                timeout=10, check=False).stdout.strip()
     except OSError:
         commit = ""
     return {
@@ -107,18 +118,25 @@ def write_record(record: dict, out_dir: Path) -> None:
     pd.DataFrame([record]).to_parquet(out_dir / "record.parquet", index=False)
 
 
-def finished(out_dir: Path) -> bool:
-    path = out_dir / "record.json"
-    return path.exists() and json.loads(path.read_text()).get("status") == "ok"
+def finished(out_dir: Path, resolved: str) -> bool:
+    """True when out_dir holds a finished record of this very config (a changed config reruns)."""
+    path, config = out_dir / "record.json", out_dir / "config_resolved.yaml"
+    if not (path.exists() and json.loads(path.read_text()).get("status") == "ok"):
+        return False
+    if not config.exists() or config.read_text() != resolved:
+        log.warning("%s holds a record of another config: rerunning", out_dir)
+        return False
+    return True
 
 
 @hydra.main(version_base="1.3", config_path=str(ROOT / "conf"), config_name="config")
 def main(cfg: DictConfig) -> None:
     out_dir = Path(HydraConfig.get().runtime.output_dir)
-    if finished(out_dir):
+    resolved = OmegaConf.to_yaml(cfg, resolve=True)
+    if finished(out_dir, resolved):
         log.info("%s already holds a finished record: skipped", out_dir)
         return
-    (out_dir / "config_resolved.yaml").write_text(OmegaConf.to_yaml(cfg, resolve=True))
+    (out_dir / "config_resolved.yaml").write_text(resolved)
     started = time.time()
     try:
         record = {**run(cfg, out_dir), "status": "ok", "error": ""}

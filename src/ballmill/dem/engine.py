@@ -242,7 +242,7 @@ class Engine:
         self.dims = tuple(int(d) for d in dims)
         n_cells = int(np.prod(dims)) * self.n_rep
         r_min = float(s.radius_m.min())
-        self.cell_cap = int(math.ceil(0.7405 * self.h**3 / (4.0 / 3.0 * math.pi * r_min**3))) + 4
+        self.cell_cap = math.ceil(0.7405 * self.h**3 / (4.0 / 3.0 * math.pi * r_min**3)) + 4
         self.domain_lo = ti.Vector.field(3, float, ())
         self.domain_hi = ti.Vector.field(3, float, ())
         self.domain_lo[None], self.domain_hi[None] = lo, hi

@@ -17,14 +17,14 @@ def init_taichi(arch: str = "cpu", precision: str = "f64", threads: int = 0, see
         raise ValueError(f"sim.arch={arch!r} is not one of {sorted(ARCHS)}")
     if precision not in PRECISIONS:
         raise ValueError(f"sim.precision={precision!r} is not one of {sorted(PRECISIONS)}")
-    kwargs = dict(
-        arch=ARCHS[arch],
-        default_fp=PRECISIONS[precision],
-        fast_math=False,
-        random_seed=seed,
-        offline_cache=True,
-        log_level=ti.WARN,
-    )
+    kwargs = {
+        "arch": ARCHS[arch],
+        "default_fp": PRECISIONS[precision],
+        "fast_math": False,
+        "random_seed": seed,
+        "offline_cache": True,
+        "log_level": ti.WARN,
+    }
     if arch == "cpu" and threads > 0:
         kwargs["cpu_max_num_threads"] = threads
     ti.reset()

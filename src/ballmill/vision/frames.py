@@ -8,8 +8,8 @@ high-speed cameras' files do; it can always be given explicitly instead.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Iterable, Iterator
 
 import cv2
 import numpy as np

@@ -9,9 +9,9 @@ noise.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Iterator
 
 import cv2
 import numpy as np
@@ -44,7 +44,7 @@ class Camera:
 
 
 def _fixed(v: float) -> int:
-    return int(round(v * (1 << SHIFT)))
+    return round(v * (1 << SHIFT))
 
 
 def _draw(canvas, cam: Camera, balls, jar_centre_m, jar: Capsule) -> None:
