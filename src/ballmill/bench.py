@@ -4,6 +4,9 @@ Reference: inner D 0.4 m, L 0.2 m, flat smooth ends, 10 mm steel balls filling 3
 volume at bed porosity 0.4 (~8,600 balls), 70 % of critical speed, E = 2e8 Pa, v 0.3,
 rho 7900, e 0.5, mu 0.5, mu_r 0.01, dt 20 % of Rayleigh; settle, then rotate.
 Other sizes scale D and L by (N / 8600)^(1/3).
+
+`--lab`: the MM400 batch instead, a 10 x 10 grid of ball-wall restitution x friction, one
+17.6 mm ball per jar at 25 Hz, 2 s each, all replicas in one launch.
 """
 
 from __future__ import annotations
@@ -13,6 +16,8 @@ import logging
 import resource
 import time
 from dataclasses import replace
+
+import numpy as np
 
 from .config import DrumConfig, InteractionConfig, MaterialConfig, SimConfig
 from .dem import Engine, EngineOptions, init_taichi
@@ -53,6 +58,20 @@ def bench(n_balls: int, arch: str, threads: int, settle_s: float, rotate_s: floa
     }
 
 
+def bench_lab(threads: int, duration_s: float) -> dict:
+    """Wall time of the 10 x 10 MM400 grid (physical stiffness), one replica per pair."""
+    from .cli import compose
+    from .lab import conditions, simulate_mm400
+
+    lab, sim, materials, interactions, _ = compose([
+        "lab.frequencies_hz=[25.0]", "lab.ball_diameters_m=[0.0176]", f"lab.duration_s={duration_s}",
+        f"sim.threads={threads}"])
+    conds = conditions(lab, np.linspace(0.3, 0.95, 10), np.linspace(0.05, 0.5, 10))
+    t0 = time.perf_counter()
+    simulate_mm400(lab, conds, materials, interactions, sim)  # logs its particle-steps per second
+    return {"replicas": len(conds), "simulated_s_each": duration_s, "wall_s": time.perf_counter() - t0}
+
+
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(prog="ballmill bench", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -62,9 +81,11 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--settle", type=float, default=0.3, help="settling time (s)")
     parser.add_argument("--rotate", type=float, default=1.0, help="timed rotation (s)")
     parser.add_argument("--profile-steps", type=int, default=50)
+    parser.add_argument("--lab", action="store_true", help="the MM400 10 x 10 grid instead of the drum")
+    parser.add_argument("--lab-duration", type=float, default=2.0, help="simulated time per MM400 replica (s)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    rows = [bench(n, args.arch, args.threads, args.settle, args.rotate, args.profile_steps) for n in args.balls]
+    rows = [bench_lab(args.threads, args.lab_duration)] if args.lab else [bench(n, args.arch, args.threads, args.settle, args.rotate, args.profile_steps) for n in args.balls]
     keys = list(rows[0])
     print("\n" + " | ".join(keys))
     for r in rows:
