@@ -71,6 +71,17 @@ def paper_comparison(name: str, ok: pd.DataFrame) -> list[str]:
             (f"| electricity at BPR 22.9 ($/t PET) | {paper['electricity_bpr_22.9']} | "
             f"{at_bpr(22.9, 'electricity_usd_per_t_pet')} |"),
         ]
+    if name == "shape_rule":
+        lines = [("| shape rule | L/D | D at BPR 19 (m) | % of critical | $/t PET at BPR 19 (paper 1.62) | "
+                 "at BPR 22.9 (paper 2.16) |"), "|---|---|---|---|---|---|"]
+        ok = ok.assign(ld=np.where(ok.shape_rule == "length_to_diameter", (ok.length_m / ok.diameter_m).round(2), np.nan))
+        for (rule, ld), g in ok.groupby(["shape_rule", "ld"], dropna=False):
+            g = g.set_index(g.bpr.round(1))
+            lines.append(f"| {rule} | {'-' if np.isnan(ld) else f'{ld:g}'} | {g.diameter_m.get(19.0, np.nan):.2f} | "
+                         f"{100 * g.fraction_of_critical.get(19.0, np.nan):.0f} | "
+                         f"{g.electricity_usd_per_t_pet.get(19.0, np.nan):.2f} | "
+                         f"{g.electricity_usd_per_t_pet.get(22.9, np.nan):.2f} |")
+        return lines
     if name == "fig4":
         lines.append(f"| yield at BPR 20 (%) | {paper['yield_bpr_20']} | {ok.yield_percent.iloc[0]:.1f} |")
     lines.append(f"| margin ($/t TPA) | {paper['margin']} | {ok.margin_usd_per_t_tpa.iloc[0]:.0f} |")
