@@ -59,13 +59,14 @@ def observations(folder: str | Path, lab: MM400Config) -> pd.DataFrame:
     for v in read_manifest(folder).itertuples():
         video = folder / v.file
         cached = video.with_name(video.name + ".track.csv")
-        fps = getattr(v, "fps", None)
+        fps, mm_per_px = (None if pd.isna(x) else float(x) for x in (getattr(v, "fps", None),
+                                                                      getattr(v, "mm_per_px", None)))
         if cached.exists():
             table = pd.read_csv(cached)
         else:
             log.info("tracking %s", video)
             table = track(video, TrackerSettings(balls=int(v.balls), ball_diameter_mm=float(v.ball_diameter_mm)),
-                          fps=fps, mm_per_px=getattr(v, "mm_per_px", None))
+                          fps=fps, mm_per_px=mm_per_px)
             table.to_csv(cached, index=False)
         fps = fps or 1.0 / np.median(np.diff(np.sort(table.time_s.unique())))
         rows.append({"file": v.file, "balls": int(v.balls), "frequency_hz": float(v.frequency_hz),
