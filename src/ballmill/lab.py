@@ -145,7 +145,8 @@ def video_collisions(speeds: pd.DataFrame, threshold_m_per_s: float) -> int:
 
 
 def summarise(track: pd.DataFrame, collisions: pd.DataFrame, cfg: MM400Config, conds: list[Condition]) -> pd.DataFrame:
-    """One row per condition: mean frame-to-frame speed, true speed, collision rates."""
+    """One row per condition: frame-to-frame speed (mean, 10/50/90th percentiles), mean true speed,
+    collision rates, impact speed and energy."""
     track = track[track.t_s > cfg.settle_s]
     fs = frame_speeds(track, cfg.camera_fps)
     span = track.t_s.max() - track.t_s.min()
@@ -156,11 +157,13 @@ def summarise(track: pd.DataFrame, collisions: pd.DataFrame, cfg: MM400Config, c
         rows.append({
             **c.__dict__, "replica": k,
             "mean_speed_m_per_s": float(g.speed.mean()),
+            **{f"speed_p{q}_m_per_s": float(g.speed.quantile(q / 100)) for q in (10, 50, 90)},
             "mean_true_speed_m_per_s": float(np.sqrt(g.vx_m_per_s**2 + g.vy_m_per_s**2 + g.vz_m_per_s**2).mean()),
             "video_collisions_per_s": video_collisions(g, cfg.collision_speed_jump_m_per_s) / span,
             "ball_wall_collisions_per_s": float((col.kind == "ball-wall").sum() / span) if len(col) else 0.0,
             "ball_ball_collisions_per_s": float((col.kind == "ball-ball").sum() / span) if len(col) else 0.0,
             "mean_impact_speed_m_per_s": float(col.impact_speed_m_per_s.mean()) if len(col) else float("nan"),
             "mean_impact_energy_j": float(col.impact_energy_j.mean()) if len(col) else float("nan"),
+            "impact_energy_p90_j": float(col.impact_energy_j.quantile(0.9)) if len(col) else float("nan"),
         })
     return pd.DataFrame(rows)
