@@ -76,6 +76,7 @@ def paper_comparison(name: str, ok: pd.DataFrame) -> list[str]:
                  "at BPR 22.9 (paper 2.16) |"), "|---|---|---|---|---|---|"]
         ok = ok.assign(ld=np.where(ok.shape_rule == "length_to_diameter", (ok.length_m / ok.diameter_m).round(2), np.nan))
         for (rule, ld), g in ok.groupby(["shape_rule", "ld"], dropna=False):
+            g = g.drop_duplicates("bpr")  # the L/D column does not enter the other rule
             g = g.set_index(g.bpr.round(1))
             lines.append(f"| {rule} | {'-' if np.isnan(ld) else f'{ld:g}'} | {g.diameter_m.get(19.0, np.nan):.2f} | "
                          f"{100 * g.fraction_of_critical.get(19.0, np.nan):.0f} | "
