@@ -85,7 +85,10 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--lab-duration", type=float, default=2.0, help="simulated time per MM400 replica (s)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    rows = [bench_lab(args.threads, args.lab_duration)] if args.lab else [bench(n, args.arch, args.threads, args.settle, args.rotate, args.profile_steps) for n in args.balls]
+    if args.lab:
+        rows = [bench_lab(args.threads, args.lab_duration)]
+    else:
+        rows = [bench(n, args.arch, args.threads, args.settle, args.rotate, args.profile_steps) for n in args.balls]
     keys = list(rows[0])
     print("\n" + " | ".join(keys))
     for r in rows:

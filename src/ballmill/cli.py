@@ -74,23 +74,13 @@ def compose(overrides: list[str]):
     from hydra import compose as hydra_compose
     from hydra import initialize_config_dir
 
-    from .config import (
-        CalibrationConfig,
-        InteractionConfig,
-        MaterialConfig,
-        MM400Config,
-        SimConfig,
-        register,
-        to_object,
-    )
+    from .config import CalibrationConfig, MM400Config, SimConfig, material_tables, register, to_object
     from .run import ROOT
 
     register()
     with initialize_config_dir(str(ROOT / "conf"), version_base="1.3"):
         cfg = hydra_compose("config", ["sim=lab", *overrides])  # a later sim=... wins
-    return (to_object(cfg.lab, MM400Config, "lab"), to_object(cfg.sim, SimConfig, "sim"),
-            {k: to_object(v, MaterialConfig, f"materials.{k}") for k, v in cfg.materials.items()},
-            {k: to_object(v, InteractionConfig, f"interactions.{k}") for k, v in cfg.interactions.items()},
+    return (to_object(cfg.lab, MM400Config, "lab"), to_object(cfg.sim, SimConfig, "sim"), *material_tables(cfg),
             to_object(cfg.calibrate, CalibrationConfig, "calibrate"))
 
 

@@ -144,6 +144,10 @@ class MM400Config:
                                                   "well above tracking noise (~0.2 m/s at 0.2 px)")
 
 
+# The MM400 fields no source pins down (estimates): lab runs report them beside their results.
+MM400_GEOMETRY = ("jar_volume_ml", "jar_inner_diameter_m", "amplitude_m", "pivot_radius_m")
+
+
 @dataclass
 class CalibrationConfig:
     """Grid of ball-wall (steel-PMMA) restitution and friction scored against tracked videos."""
@@ -211,3 +215,9 @@ def to_object(cfg: DictConfig, schema: type, path: str):
     obj = OmegaConf.to_object(merged)
     check(obj, path)
     return obj
+
+
+def material_tables(cfg: DictConfig) -> tuple[dict[str, MaterialConfig], dict[str, InteractionConfig]]:
+    """The composed config's materials and pair table ('a-b' keys), each entry range-checked."""
+    return ({k: to_object(v, MaterialConfig, f"materials.{k}") for k, v in cfg.materials.items()},
+            {k: to_object(v, InteractionConfig, f"interactions.{k}") for k, v in cfg.interactions.items()})

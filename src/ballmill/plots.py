@@ -8,6 +8,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+import numpy as np
 import pandas as pd
 
 
@@ -69,8 +70,6 @@ def plot_fig4(table: pd.DataFrame):
 
 def plot_score_surface(surface: pd.DataFrame, best: dict):
     """Calibration score over the restitution x friction grid (log colour), best pair marked."""
-    import numpy as np
-
     grid = surface.pivot(index="wall_restitution", columns="wall_friction", values="score")
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     mesh = ax.pcolormesh(grid.columns, grid.index, np.log10(grid.to_numpy()), shading="nearest", cmap="viridis_r")

@@ -15,6 +15,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from .config import MM400_GEOMETRY
 from .data import DATA_DIR, table
 from .plots import plot_fig3b, plot_fig4, plot_lab_validation, save_figure
 
@@ -90,23 +91,23 @@ def paper_comparison(name: str, ok: pd.DataFrame) -> list[str]:
 
 
 COLUMNS = ["bpr", "region", "shape_rule", "pet_feed_kg_per_h", "naoh_feed_kg_per_h", "diameter_m", "length_m",
-           "ball_count", "fraction_of_critical", "dem_dt_s", "dem_power_w", "dem_power_se_w", "bond_rowland_power_w", "electricity_usd_per_yr",
-           "electricity_usd_per_t_pet", "purchase_cost_usd", "purchase_cost_usd_per_kg_per_h", "yield_percent"]
+           "ball_count", "fraction_of_critical", "dem_dt_s", "dem_power_w", "dem_power_se_w", "bond_rowland_power_w",
+           "electricity_usd_per_yr", "electricity_usd_per_t_pet", "purchase_cost_usd", "purchase_cost_usd_per_kg_per_h", "yield_percent"]
 
 
 def lab_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
-    """MM400 runs: their summaries in one table, the speed-vs-frequency figure, geometry slopes."""
-    sim = pd.concat([pd.read_csv(Path(d) / "lab_summary.csv").assign(job_dir=d, **_overrides(o))
-                     for d, o in zip(ok.job_dir, ok.overrides)], ignore_index=True)
+    """MM400 runs: their summaries in one table, the speed-vs-frequency figure, speed per swept geometry."""
+    sim = pd.concat([pd.read_csv(Path(d) / "lab_summary.csv").assign(job_dir=d) for d in ok.job_dir],
+                    ignore_index=True)
+    swept = [k for k in MM400_GEOMETRY if k in sim and sim[k].nunique() > 1]
     write_table(sim, out_dir / f"{name}_conditions")
     paths = ok.observations.dropna().unique() if "observations" in ok else []
     observed = pd.read_csv(paths[0]) if len(paths) else None
     save_figure(plot_lab_validation(sim, observed), out_dir / name)
     cols = [c for c in ["balls", "frequency_hz", "ball_diameter_m", "wall_restitution", "wall_friction",
-                        *[k for k in sim.columns if k.startswith("lab.")], "mean_speed_m_per_s",
+                        *swept, "mean_speed_m_per_s",
                         "video_collisions_per_s", "ball_wall_collisions_per_s", "mean_impact_energy_j"] if c in sim]
     lines = [f"![{name}]({name}.png)", "", sim[cols].to_markdown(index=False, floatfmt=".4g"), ""]
-    swept = [k for k in sim.columns if k.startswith("lab.") and sim[k].nunique() > 1]
     if swept:  # the response can be far from linear (a ball that never reaches the jar's ends)
         lines += ["Mean ball speed (m/s) by the value of each swept input, averaged over the others:", ""]
         for k in swept:
@@ -114,18 +115,6 @@ def lab_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
             lines.append(f"- {k}: " + ", ".join(f"{v:g} -> {m:.3f}" for v, m in means.items()))
         lines.append("")
     return lines
-
-
-def _overrides(text) -> dict:
-    """Swept numeric overrides of a job ('a.b=1.5 c=2') as columns."""
-    out = {}
-    for item in str(text or "").split():
-        key, _, value = item.partition("=")
-        try:
-            out[key.lstrip("+")] = float(value)
-        except ValueError:
-            pass
-    return {k: v for k, v in out.items() if k.startswith("lab.") and k != "lab.balls_per_jar"}
 
 
 def report(sweep_dir: Path, out_dir: Path) -> Path:

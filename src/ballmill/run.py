@@ -27,14 +27,14 @@ from omegaconf import DictConfig, OmegaConf
 
 from . import __version__
 from .config import (
+    MM400_GEOMETRY,
     ConfigError,
     DrumConfig,
     EconomicsConfig,
-    InteractionConfig,
-    MaterialConfig,
     MM400Config,
     ScaleupConfig,
     SimConfig,
+    material_tables,
     register,
     to_object,
 )
@@ -69,8 +69,7 @@ def provenance(sim) -> dict:
 def run(cfg: DictConfig, out_dir: Path) -> dict:
     """Validate everything first, then simulate; returns the record (no status fields)."""
     sim = to_object(cfg.sim, SimConfig, "sim")
-    materials = {k: to_object(v, MaterialConfig, f"materials.{k}") for k, v in cfg.materials.items()}
-    pairs = {k: to_object(v, InteractionConfig, f"interactions.{k}") for k, v in cfg.interactions.items()}
+    materials, pairs = material_tables(cfg)
     drum = to_object(cfg.mill, DrumConfig, "mill")
     kind = cfg.study.kind
     if kind not in ("design", "drum", "lab"):
@@ -107,8 +106,9 @@ def run_lab(lab: MM400Config, materials, pairs, sim: SimConfig, out_dir: Path, o
     pair = wall_interaction(pairs, lab)
     conds = conditions(lab, [pair.restitution], [pair.static_friction])
     traj, collisions = simulate_mm400(lab, conds, materials, pairs, sim)
-    summarise(traj, collisions, lab, conds).assign(balls=lab.balls_per_jar).to_csv(out_dir / "lab_summary.csv",
-                                                                                    index=False)
+    summary = summarise(traj, collisions, lab, conds).assign(
+        balls=lab.balls_per_jar, **{k: getattr(lab, k) for k in MM400_GEOMETRY})
+    summary.to_csv(out_dir / "lab_summary.csv", index=False)
     return {"balls": lab.balls_per_jar, "wall_restitution": pair.restitution,
             "wall_friction": pair.static_friction, "conditions": len(conds), "observations": observations}
 
