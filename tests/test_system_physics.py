@@ -68,7 +68,7 @@ def test_cell_list_and_all_pairs_search_give_the_same_trajectories():
 
 MATERIALS = {"steel": MaterialConfig()}
 PAIRS = {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}
-SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.3, duration_s=0.6, sample_every_s=0.01, steady_after_s=0.2)
+SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.3, duration_s=1.5, sample_every_s=0.01, steady_after_s=0.2)
 
 
 def small_drum(geometry):

@@ -130,6 +130,14 @@ def time_step_s(spec: SystemSpec, sim: SimConfig) -> float:
     return sim.dt_s if sim.dt_s is not None else sim.dt_fraction * spec.rayleigh_timestep_s()
 
 
+def engine_options(sim: SimConfig, dt_s: float) -> EngineOptions:
+    """The engine's numerical settings from the sim config group."""
+    return EngineOptions(
+        dt_s=dt_s, max_contacts_per_particle=sim.max_contacts_per_particle, event_capacity=sim.event_capacity,
+        max_overlap_fraction=sim.max_overlap_fraction, skin_fraction=sim.neighbour_skin,
+    )
+
+
 def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
     """Hash of everything that determines a drum DEM result (prices and feeds do not)."""
     payload = {
@@ -151,12 +159,10 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
     spec = drum_system(drum, mats, pairs, sim)
     dt = time_step_s(spec, sim)
     init_taichi(sim.arch, sim.precision, sim.threads, sim.seed)
-    engine = Engine(spec, EngineOptions(
-        dt_s=dt, max_contacts_per_particle=sim.max_contacts_per_particle,
-        event_capacity=sim.event_capacity, max_overlap_fraction=sim.max_overlap_fraction,
-    ))
-    log.info("drum DEM: %d balls, dt = %.3g s (%.0f %% of Rayleigh), %s neighbour search",
-             spec.n_particles, dt, 100 * dt / spec.rayleigh_timestep_s(), "grid" if engine.use_grid else "all-pairs")
+    engine = Engine(spec, engine_options(sim, dt))
+    log.info("drum DEM: %d balls, dt = %.3g s (%.0f %% of Rayleigh), %s neighbour search, %s steps",
+             spec.n_particles, dt, 100 * dt / spec.rayleigh_timestep_s(), "grid" if engine.use_grid else "all-pairs",
+             "serial" if engine.serial else "parallel")
     results = engine.run(sim.settle_s + sim.duration_s, sim.sample_every_s,
                          Recorder(engine, sim.trajectory_every), label="drum")
     results.write(out_dir)

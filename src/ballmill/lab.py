@@ -17,8 +17,8 @@ import numpy as np
 import pandas as pd
 
 from .config import ConfigError, InteractionConfig, MM400Config, SimConfig
-from .dem import Body, Capsule, Engine, EngineOptions, Interaction, Motion, Recorder, SystemSpec, init_taichi
-from .drum import build_materials
+from .dem import Body, Capsule, Engine, Interaction, Motion, Recorder, SystemSpec, init_taichi
+from .drum import build_materials, engine_options
 
 JAR_AXIS = (1.0, 0.0, 0.0)  # the jar lies horizontally along x; it swings about a vertical axis
 
@@ -114,7 +114,7 @@ def simulate_mm400(cfg: MM400Config, conds: list[Condition], materials, interact
     dt_max = sim.dt_s or sim.dt_fraction * spec.rayleigh_timestep_s()
     dt = frame / math.ceil(frame / dt_max)  # a whole number of steps per camera frame
     init_taichi(sim.arch, sim.precision, sim.threads, sim.seed)
-    engine = Engine(spec, EngineOptions(dt_s=dt, max_overlap_fraction=sim.max_overlap_fraction))
+    engine = Engine(spec, engine_options(sim, dt))
     res = engine.run(cfg.duration_s, frame, Recorder(engine, trajectory_every=1), label="mm400")
     return res.trajectories, res.collisions
 

@@ -6,9 +6,48 @@ its partner, `delta` the overlap (m) and `v_rel` the velocity of a's contact poi
 to the partner's (m/s).
 """
 
+import numpy as np
 import taichi as ti
 
+from .materials import damping_ratio_for_restitution, effective_shear_modulus, effective_youngs_modulus
+
 SQRT_5_6 = 0.9128709291752769  # sqrt(5/6), EDEM damping prefactor
+
+
+@ti.data_oriented
+class PairTables:
+    """Contact parameters per material pair (E*, G*) and per replica (damping, friction)."""
+
+    def __init__(self, spec):
+        m, r = len(spec.material_names), spec.n_replicas
+        mats = [spec.materials[k] for k in spec.material_names]
+        self.e_star = ti.field(float, (m, m))
+        self.g_star = ti.field(float, (m, m))
+        self.zeta = ti.field(float, (r, m, m))
+        self.mu_s = ti.field(float, (r, m, m))
+        self.mu_r = ti.field(float, (r, m, m))
+        self.e_star.from_numpy(np.array([[effective_youngs_modulus(a, b) for b in mats] for a in mats]))
+        self.g_star.from_numpy(np.array([[effective_shear_modulus(a, b) for b in mats] for a in mats]))
+        zeta, mu_s, mu_r = (np.zeros((r, m, m)) for _ in range(3))
+        particle_mats = set(np.unique(spec.material).tolist())
+        for rep in range(r):
+            for a in range(m):
+                for b in range(m):
+                    if a not in particle_mats and b not in particle_mats:
+                        continue  # wall-wall: never in contact
+                    pair = spec.interaction(rep, spec.material_names[a], spec.material_names[b])
+                    zeta[rep, a, b] = damping_ratio_for_restitution(pair.restitution)
+                    mu_s[rep, a, b] = pair.static_friction
+                    mu_r[rep, a, b] = pair.rolling_friction
+        self.zeta.from_numpy(zeta)
+        self.mu_s.from_numpy(mu_s)
+        self.mu_r.from_numpy(mu_r)
+
+    @ti.func
+    def law(self, r, ma, mb, delta, n, v_rel, xi, m_eff, r_eff, dt):
+        """hertz_mindlin with the parameters of materials ma, mb in replica r."""
+        return hertz_mindlin(delta, n, v_rel, xi, m_eff, r_eff, self.e_star[ma, mb], self.g_star[ma, mb],
+                             self.zeta[r, ma, mb], self.mu_s[r, ma, mb], dt)
 
 
 @ti.func

@@ -77,7 +77,7 @@ class Recorder:
                 force_z_n=loads["force"][:, b, 2],
             )
         x, v, w = engine.x.to_numpy(), engine.v.to_numpy(), engine.w.to_numpy()
-        m = engine.mass_np
+        m = engine.p.mass_np
         g = np.asarray(engine.spec.gravity_m_per_s2)
 
         def per_replica(q):
@@ -104,16 +104,17 @@ class Recorder:
         if not len(ints):
             return
         i, key = ints[:, 0], ints[:, 1]
-        n, nw, nt = engine.n, engine.n_wall, engine.n_tri
+        walls = engine.walls
+        n, nw, nt = engine.n, walls.n_wall, walls.n_tri
         is_pair = key < n
         body = np.full(len(key), -1)
         wall = (key >= n) & (key < n + nw)
         if nw:
-            body[wall] = engine.w_body.to_numpy()[key[wall] - n]
+            body[wall] = walls.w_body.to_numpy()[key[wall] - n]
         mesh = key >= n + nw + nt
-        if engine.n_mesh:
-            body[mesh] = engine.m_body.to_numpy()[key[mesh] - n - nw - nt]
-        m = engine.mass_np
+        if walls.n_mesh:
+            body[mesh] = walls.m_body.to_numpy()[key[mesh] - n - nw - nt]
+        m = engine.p.mass_np
         m_j = m[np.where(is_pair, key, i)]
         m_eff = np.where(is_pair, m[i] * m_j / (m[i] + m_j), m[i])
         names = np.array(self.body_names + [""], dtype=object)

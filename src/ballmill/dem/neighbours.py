@@ -1,0 +1,239 @@
+"""Verlet neighbour list with a skin, found through a cell grid or all pairs of a replica.
+
+Half list: particle i holds the partners j > i whose centres were closer than
+r_i + r_j + skin when the list was built, with the contact history of each pair in the
+same slot (tangential spring, collision start step, impact speed, energy dissipated), and
+the force and torques of the pair, written there by `pairs.py` and gathered per particle
+in slot order (`gather`).  Partners are kept in id order, so the sums depend neither on
+thread scheduling nor on the skin or when the list was rebuilt: identical bits.  Each particle
+also lists the slots (j, s) of the lower partners that hold it, the reverse list.
+
+The list stays valid while no particle has moved more than skin / 2 from where it was at
+the build: at the end of every step each particle checks where its next drift will take
+it and, if that is past skin / 2, marks its replica for a rebuild before the next step.
+A rebuild carries each pair's history over by partner id.  A larger skin means fewer
+rebuilds but more candidate pairs to test every step.
+"""
+
+import math
+
+import numpy as np
+import taichi as ti
+
+from .monitor import CELL, NEIGHBOURS
+
+
+@ti.data_oriented
+class NeighbourList:
+    """Candidate pairs and their per-pair history and force slots (capacity per particle)."""
+
+    def __init__(self, spec, particles, monitor, capacity: int, skin_m: float, use_grid: bool):
+        n, reps = spec.n_particles, spec.n_replicas
+        self.p, self.monitor = particles, monitor
+        self.n, self.n_rep, self.k_max, self.skin, self.use_grid = n, reps, capacity, skin_m, use_grid
+        k = capacity
+        self.nb_n = ti.field(ti.i32, n)
+        self.nb_j = ti.field(ti.i32, (n, k))
+        self.rv_n = ti.field(ti.i32, n)
+        self.rv_slot = ti.field(ti.i32, (n, k))  # j * capacity + s of the lower partner's slot
+        # history per slot; start = -1: not in contact
+        self.start = ti.field(ti.i32, (n, k))
+        self.xi = ti.Vector.field(3, float, (n, k))
+        self.vn0 = ti.field(float, (n, k))
+        self.ed = ti.field(float, (n, k))
+        # force on i and torques on i and j per slot, written every step
+        self.f = ti.Vector.field(3, float, (n, k))
+        self.t_i = ti.Vector.field(3, float, (n, k))
+        self.t_j = ti.Vector.field(3, float, (n, k))
+        # scratch for a rebuild: the new list of i before it replaces the old one
+        self.new_j = ti.field(ti.i32, (n, k))
+        self.new_start = ti.field(ti.i32, (n, k))
+        self.new_xi = ti.Vector.field(3, float, (n, k))
+        self.new_vn0 = ti.field(float, (n, k))
+        self.new_ed = ti.field(float, (n, k))
+        self.x_ref = ti.Vector.field(3, float, n)
+        self.due = ti.field(ti.i32, reps)  # 1: rebuild the replica's list before its next step
+        self.any_due = ti.field(ti.i32, ())
+        self.builds = ti.field(ti.i32, ())
+        self.due.fill(1)
+        self._build_grid(spec)
+
+    def _build_grid(self, spec) -> None:
+        """Cells of side 2 r_max + skin, so partners within the cut-off lie in the 27 cells around."""
+        self.h = 2.0 * float(spec.radius_m.max()) + self.skin
+        lo, hi = np.asarray(spec.domain_lo_m, float), np.asarray(spec.domain_hi_m, float)
+        dims = np.maximum(np.ceil((hi - lo) / self.h).astype(int), 1) if self.use_grid else np.ones(3, int)
+        self.dims = tuple(int(d) for d in dims)
+        self.cells_per_rep = int(np.prod(dims))
+        r_min = float(spec.radius_m.min())
+        # centres at least 2 r_min (1 - 5 % overlap) apart: at most (h / 1.9 r_min + 1)^3 in a cell
+        self.cell_cap = (math.floor(self.h / (1.9 * r_min)) + 1) ** 3
+        self.cell_count = ti.field(ti.i32, self.cells_per_rep * self.n_rep)
+        self.cell_list = ti.field(ti.i32, (self.cells_per_rep * self.n_rep, self.cell_cap))
+
+    # ------------------------------------------------------------------ cell grid
+    @ti.func
+    def cell_of(self, i):
+        rel = (self.p.x[i] - self.p.domain_lo[None]) / self.h
+        c = ti.Vector([0, 0, 0])
+        for a in ti.static(range(3)):
+            c[a] = ti.min(ti.max(int(ti.floor(rel[a])), 0), self.dims[a] - 1)
+        return c
+
+    @ti.func
+    def cell_id(self, r, c):
+        return ((r * self.dims[0] + c[0]) * self.dims[1] + c[1]) * self.dims[2] + c[2]
+
+    @ti.func
+    def bin(self, i):
+        cid = self.cell_id(self.p.rep[i], self.cell_of(i))
+        s = ti.atomic_add(self.cell_count[cid], 1)
+        if s < self.cell_cap:
+            self.cell_list[cid, s] = i
+        else:
+            self.monitor.overflow[None] = CELL
+
+    @ti.func
+    def sort_row(self, a: ti.template(), row, m):
+        """Insertion sort of a[row, :m] (short rows: a cell's ids, a particle's partners)."""
+        for q in range(1, m):
+            key = a[row, q]
+            b = q - 1
+            while b >= 0 and a[row, b] > key:
+                a[row, b + 1] = a[row, b]
+                b -= 1
+            a[row, b + 1] = key
+
+    # ------------------------------------------------------------------ list build
+    @ti.func
+    def consider(self, i, j, cnt, low):
+        """Add j to i's list (j > i) or to its lower partners (j < i) if within the cut-off."""
+        if j != i:
+            cut = self.p.rad[i] + self.p.rad[j] + self.skin
+            d = self.p.x[j] - self.p.x[i]
+            if d.dot(d) < cut * cut:
+                if j > i:
+                    if cnt < self.k_max:
+                        self.new_j[i, cnt] = j
+                    cnt += 1
+                else:
+                    if low < self.k_max:
+                        self.rv_slot[i, low] = j
+                    low += 1
+        return cnt, low
+
+    @ti.func
+    def build_particle(self, i):
+        """New list of i (partners in id order), history carried over by partner id."""
+        cnt, low = 0, 0
+        r = self.p.rep[i]
+        if ti.static(self.use_grid):
+            c0 = self.cell_of(i)
+            for o in range(27):  # a dynamic loop: the scan is compiled once, not 27 times
+                c = c0 + ti.Vector([o // 9 - 1, (o // 3) % 3 - 1, o % 3 - 1])
+                if 0 <= c[0] < self.dims[0] and 0 <= c[1] < self.dims[1] and 0 <= c[2] < self.dims[2]:
+                    cid = self.cell_id(r, c)
+                    for q in range(ti.min(self.cell_count[cid], self.cell_cap)):
+                        cnt, low = self.consider(i, self.cell_list[cid, q], cnt, low)
+        else:
+            for j in range(self.p.rep_start[r], self.p.rep_end[r]):
+                cnt, low = self.consider(i, j, cnt, low)
+        if cnt > self.k_max or low > self.k_max:
+            self.monitor.overflow[None] = NEIGHBOURS
+        cnt, low = ti.min(cnt, self.k_max), ti.min(low, self.k_max)
+        # partners in id order: forces are summed in the same order whatever the skin
+        self.sort_row(self.new_j, i, cnt)
+        self.sort_row(self.rv_slot, i, low)
+        for c in range(cnt):
+            j = self.new_j[i, c]
+            self.new_start[i, c] = -1
+            self.new_xi[i, c] = ti.Vector([0.0, 0.0, 0.0])
+            self.new_vn0[i, c], self.new_ed[i, c] = 0.0, 0.0
+            for s in range(self.nb_n[i]):
+                if self.nb_j[i, s] == j:
+                    self.new_start[i, c], self.new_xi[i, c] = self.start[i, s], self.xi[i, s]
+                    self.new_vn0[i, c], self.new_ed[i, c] = self.vn0[i, s], self.ed[i, s]
+        for c in range(cnt):
+            self.nb_j[i, c], self.start[i, c], self.xi[i, c] = self.new_j[i, c], self.new_start[i, c], self.new_xi[i, c]
+            self.vn0[i, c], self.ed[i, c] = self.new_vn0[i, c], self.new_ed[i, c]
+        self.nb_n[i], self.rv_n[i] = cnt, low
+        self.x_ref[i] = self.p.x[i]
+
+    @ti.func
+    def link_reverse(self, i):
+        """Replace each lower partner j of i by the slot (j, s) that holds i in j's list."""
+        for q in range(self.rv_n[i]):
+            j = self.rv_slot[i, q]
+            slot = -1
+            for s in range(self.nb_n[j]):
+                if self.nb_j[j, s] == i:
+                    slot = j * self.k_max + s
+            self.rv_slot[i, q] = slot
+
+    @ti.func
+    def build_replica(self, r):
+        """Serial rebuild of replica r (one thread; used inside multi-step kernels)."""
+        i0, i1 = self.p.rep_start[r], self.p.rep_end[r]
+        if ti.static(self.use_grid):
+            for c in range(r * self.cells_per_rep, (r + 1) * self.cells_per_rep):
+                self.cell_count[c] = 0
+            for i in range(i0, i1):  # in id order, so each cell is already sorted
+                self.bin(i)
+        for i in range(i0, i1):
+            self.build_particle(i)
+        for i in range(i0, i1):
+            self.link_reverse(i)
+        self.due[r] = 0
+        self.builds[None] += 1
+
+    @ti.kernel
+    def build_all(self):
+        """Parallel rebuild of every replica."""
+        if ti.static(self.use_grid):
+            for c in self.cell_count:
+                self.cell_count[c] = 0
+            for i in range(self.n):
+                self.bin(i)
+            for c in self.cell_count:
+                self.sort_row(self.cell_list, c, ti.min(self.cell_count[c], self.cell_cap))
+        for i in range(self.n):
+            self.build_particle(i)
+        for i in range(self.n):
+            self.link_reverse(i)
+        for r in range(self.n_rep):
+            self.due[r] = 0
+        self.any_due[None] = 0
+        self.builds[None] += 1
+
+    # ------------------------------------------------------------------ per step
+    @ti.func
+    def gather(self, i):
+        """Sum of the pair forces and torques on i, in slot order (N, N m)."""
+        f = ti.Vector([0.0, 0.0, 0.0])
+        t = ti.Vector([0.0, 0.0, 0.0])
+        for s in range(self.nb_n[i]):
+            f += self.f[i, s]
+            t += self.t_i[i, s]
+        for q in range(self.rv_n[i]):
+            slot = self.rv_slot[i, q]
+            if slot >= 0:  # always, unless j's list overflowed (then the run stops)
+                j, s = slot // self.k_max, slot % self.k_max
+                f -= self.f[j, s]
+                t += self.t_j[j, s]
+        return f, t
+
+    @ti.func
+    def watch(self, i):
+        """Mark i's replica for a rebuild if its next drift leaves the skin (end of a step)."""
+        x_next = self.p.next_position(i)
+        half = 0.5 * self.skin
+        if (x_next - self.x_ref[i]).norm_sqr() > half * half:
+            self.due[self.p.rep[i]] = 1
+            self.any_due[None] = 1
+            if (x_next - self.p.x[i]).norm_sqr() > half * half:
+                ti.atomic_max(self.monitor.fast[None], i + 1)
+
+    def contact_pairs(self) -> int:
+        """Pairs in contact now."""
+        used = np.arange(self.k_max)[None, :] < self.nb_n.to_numpy()[:, None]
+        return int(((self.start.to_numpy() >= 0) & used).sum())

@@ -1,0 +1,54 @@
+"""Sphere-sphere contacts: every candidate pair of the neighbour list evaluated once per step."""
+
+import taichi as ti
+
+from .contact import rolling_torque
+
+
+@ti.data_oriented
+class PairContacts:
+    """Writes each pair's force and torques into its list slot and keeps its history there."""
+
+    def __init__(self, particles, tables, nlist, monitor, collision_log: bool):
+        self.p, self.tables, self.nl, self.monitor = particles, tables, nlist, monitor
+        self.collision_log = collision_log
+
+    @ti.func
+    def forces(self, i, k):
+        """Contacts of i with its partners j > i at step k; a contact that ended is logged."""
+        p, nl = self.p, self.nl
+        zero = ti.Vector([0.0, 0.0, 0.0])
+        dt = p.dt[None]
+        for s in range(nl.nb_n[i]):
+            j = nl.nb_j[i, s]
+            d = p.x[j] - p.x[i]
+            sum_r = p.rad[i] + p.rad[j]
+            dist2 = d.dot(d)
+            f, t_a, t_b = zero, zero, zero
+            if dist2 < sum_r * sum_r and dist2 > 0.0:
+                dist = ti.sqrt(dist2)
+                delta = sum_r - dist
+                n = d / dist  # from i towards j
+                ca, cb = p.rad[i] - 0.5 * delta, p.rad[j] - 0.5 * delta
+                v_rel = p.v[i] + p.w[i].cross(ca * n) - p.v[j] + p.w[j].cross(cb * n)
+                start, xi, vn0, ed = nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s]
+                if start < 0:  # a new contact
+                    start, xi, vn0, ed = k, zero, v_rel.dot(n), 0.0
+                r, ma, mb = p.rep[i], p.mat[i], p.mat[j]
+                m_eff = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j])
+                r_eff = p.rad[i] * p.rad[j] / sum_r
+                fn, ft, xi, loss = self.tables.law(r, ma, mb, delta, n, v_rel, xi, m_eff, r_eff, dt)
+                mu_r = self.tables.mu_r[r, ma, mb]
+                roll_a = rolling_torque(fn, mu_r, p.rad[i], p.w[i] - p.w[j])
+                roll_b = rolling_torque(fn, mu_r, p.rad[j], p.w[j] - p.w[i])
+                f = -fn * n + ft
+                t_a = (ca * n).cross(ft) + roll_a
+                t_b = (cb * n).cross(ft) + roll_b
+                loss -= roll_a.dot(p.w[i]) + roll_b.dot(p.w[j])
+                self.monitor.overlap(delta / ti.min(p.rad[i], p.rad[j]))
+                nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s] = start, xi, vn0, ed + loss * dt
+            elif nl.start[i, s] >= 0:  # the contact ended at this step
+                if ti.static(self.collision_log):
+                    self.monitor.collision(i, j, nl.start[i, s], k, nl.vn0[i, s], nl.ed[i, s])
+                nl.start[i, s] = -1
+            nl.f[i, s], nl.t_i[i, s], nl.t_j[i, s] = f, t_a, t_b

@@ -1,0 +1,71 @@
+"""Particle state (struct of arrays, SI) and the velocity Verlet integrator.
+
+A step is LIGGGHTS' initial/final integrate: kick_drift (half kick, drift), forces at the
+new positions, kick (second half kick).
+"""
+
+import math
+
+import numpy as np
+import taichi as ti
+
+
+@ti.data_oriented
+class Particles:
+    """Positions, velocities, spins, forces and constants of n spheres, sorted by replica."""
+
+    def __init__(self, spec):
+        n, reps = spec.n_particles, spec.n_replicas
+        counts = np.bincount(spec.replica, minlength=reps)
+        self.n, self.n_rep, self.counts = n, reps, counts
+        self.x = ti.Vector.field(3, float, n)
+        self.v = ti.Vector.field(3, float, n)
+        self.w = ti.Vector.field(3, float, n)
+        self.f = ti.Vector.field(3, float, n)
+        self.tq = ti.Vector.field(3, float, n)
+        self.rad = ti.field(float, n)
+        self.mass = ti.field(float, n)
+        self.inertia = ti.field(float, n)
+        self.mat = ti.field(ti.i32, n)
+        self.rep = ti.field(ti.i32, n)
+        self.rep_start = ti.field(ti.i32, reps)
+        self.rep_end = ti.field(ti.i32, reps)
+        self.gravity = ti.Vector.field(3, float, ())
+        self.dt = ti.field(float, ())
+        self.domain_lo = ti.Vector.field(3, float, ())
+        self.domain_hi = ti.Vector.field(3, float, ())
+        density = np.array([spec.materials[m].density_kg_per_m3 for m in spec.material_names])[spec.material]
+        self.mass_np = density * 4.0 / 3.0 * math.pi * spec.radius_m**3
+        self.x.from_numpy(spec.position_m)
+        self.v.from_numpy(spec.velocity_m_per_s)
+        self.w.from_numpy(spec.angular_velocity_rad_per_s)
+        self.rad.from_numpy(spec.radius_m)
+        self.mass.from_numpy(self.mass_np)
+        self.inertia.from_numpy(0.4 * self.mass_np * spec.radius_m**2)
+        self.mat.from_numpy(spec.material.astype(np.int32))
+        self.rep.from_numpy(spec.replica.astype(np.int32))
+        ends = np.cumsum(counts)
+        self.rep_start.from_numpy((ends - counts).astype(np.int32))
+        self.rep_end.from_numpy(ends.astype(np.int32))
+        self.gravity[None] = spec.gravity_m_per_s2
+        self.domain_lo[None], self.domain_hi[None] = spec.domain_lo_m, spec.domain_hi_m
+
+    @ti.func
+    def kick(self, i):
+        """Half a velocity step with the current force and torque."""
+        dt = self.dt[None]
+        self.v[i] += 0.5 * dt * self.f[i] / self.mass[i]
+        self.w[i] += 0.5 * dt * self.tq[i] / self.inertia[i]
+
+    @ti.func
+    def kick_drift(self, i, monitor):
+        self.kick(i)
+        self.x[i] += self.dt[None] * self.v[i]
+        if not all(self.domain_lo[None] <= self.x[i] <= self.domain_hi[None]):
+            ti.atomic_max(monitor.escaped[None], i + 1)
+
+    @ti.func
+    def next_position(self, i):
+        """Where the next kick_drift will put particle i (m), for the neighbour-list trigger."""
+        dt = self.dt[None]
+        return self.x[i] + dt * (self.v[i] + 0.5 * dt * self.f[i] / self.mass[i])

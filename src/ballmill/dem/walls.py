@@ -1,0 +1,307 @@
+"""Sphere-wall contacts: analytic walls and triangle meshes, their history and the wall loads.
+
+Contacts are found in the body frame of each wall (one frame change per particle and
+body), then resolved with the same contact law as sphere-sphere contacts (a wall is a body
+of infinite mass and radius).  Each particle keeps its wall contacts in slots double
+buffered by step parity (old: the previous step, new: this one), keyed by partner:
+n + w for analytic wall w, n + n_wall + t for triangle t.  The reaction on each body is
+accumulated per (particle, body) and summed in particle order when drained.
+"""
+
+import numpy as np
+import taichi as ti
+
+from .contact import closest_point_on_triangle, rolling_torque, wall_geometry
+from .geometry import CAPSULE, CYLINDER, PLANE, Capsule, Cylinder, Mesh, Plane
+from .monitor import WALL_CONTACTS
+from .motion import unit
+
+MESH_CELLS_PER_SIDE = 64  # a mesh's bounding box is binned into at most this many cells per side
+
+
+@ti.data_oriented
+class Walls:
+    def __init__(self, spec, particles, tables, motions, monitor, capacity: int, collision_log: bool):
+        self.p, self.tables, self.mo, self.monitor = particles, tables, motions, monitor
+        self.n, self.k_max, self.collision_log = spec.n_particles, capacity, collision_log
+        self.n_body = len(spec.bodies)
+        self._build_primitives(spec)
+        n, k, b = self.n, capacity, max(self.n_body, 1)
+        self.c_n = ti.field(ti.i32, (2, n))
+        self.c_key = ti.field(ti.i32, (2, n, k))
+        self.c_xi = ti.Vector.field(3, float, (2, n, k))
+        self.c_start = ti.field(ti.i32, (2, n, k))
+        self.c_vn = ti.field(float, (2, n, k))
+        self.c_ed = ti.field(float, (2, n, k))
+        self.acc_f = ti.Vector.field(3, float, (n, b))
+        self.acc_tq = ti.Vector.field(3, float, (n, b))
+        self.acc_tq_roll = ti.Vector.field(3, float, (n, b))
+        self.acc_pw = ti.field(float, (n, b))
+        self.acc_pw_roll = ti.field(float, (n, b))
+
+    # ---------------------------------------------------------------- set-up
+    def _build_primitives(self, spec) -> None:
+        kinds = {Plane: PLANE, Cylinder: CYLINDER, Capsule: CAPSULE}
+        rows, tris, tri_body, tri_mat, meshes = [], [], [], [], []
+        for b, body in enumerate(spec.bodies):
+            mat = spec.material_names.index(body.material)
+            for wall in body.walls:
+                if isinstance(wall, Mesh):
+                    meshes.append((b, len(tris), wall))
+                    tris.extend(wall.triangles)
+                    tri_body += [b] * len(wall.faces)
+                    tri_mat += [mat] * len(wall.faces)
+                elif isinstance(wall, Plane):
+                    rows.append((PLANE, b, mat, wall.point_m, unit(wall.normal), 0.0, 0.0))
+                else:
+                    rows.append((kinds[type(wall)], b, mat, wall.center_m, unit(wall.axis), wall.radius_m,
+                                 wall.half_length_m))
+        rows.sort(key=lambda row: row[1])  # grouped by body: one frame change per body
+        self.n_wall, self.n_tri, self.n_mesh = len(rows), len(tris), len(meshes)
+        nw = max(self.n_wall, 1)
+        self.w_kind = ti.field(ti.i32, nw)
+        self.w_body = ti.field(ti.i32, nw)
+        self.w_mat = ti.field(ti.i32, nw)
+        self.w_point = ti.Vector.field(3, float, nw)
+        self.w_axis = ti.Vector.field(3, float, nw)
+        self.w_radius = ti.field(float, nw)
+        self.w_half = ti.field(float, nw)
+        for k, (kind, b, mat, point, axis, radius, half) in enumerate(rows):
+            self.w_kind[k], self.w_body[k], self.w_mat[k] = kind, b, mat
+            self.w_point[k], self.w_axis[k] = point, axis
+            self.w_radius[k], self.w_half[k] = radius, half
+        self._build_meshes(spec, np.array(tris).reshape(-1, 3, 3), tri_body, tri_mat, meshes)
+
+    def _build_meshes(self, spec, tris, tri_body, tri_mat, meshes) -> None:
+        """Triangles in body frame, binned per mesh in a uniform grid (CSR) of cell >= 2 r_max."""
+        nt, nm = max(self.n_tri, 1), max(self.n_mesh, 1)
+        self.t_corner = ti.Vector.field(3, float, (nt, 3))
+        self.t_body = ti.field(ti.i32, nt)
+        self.t_mat = ti.field(ti.i32, nt)
+        self.m_body = ti.field(ti.i32, nm)
+        self.m_tri0 = ti.field(ti.i32, nm)
+        self.m_tri1 = ti.field(ti.i32, nm)
+        self.m_lo = ti.Vector.field(3, float, nm)
+        self.m_dims = ti.Vector.field(3, ti.i32, nm)
+        self.m_cell0 = ti.field(ti.i32, nm)
+        self.m_h = ti.field(float, nm)
+        starts, ids, cell0 = [0], [], 0
+        reach = 2.0 * float(spec.radius_m.max())
+        for k, (b, t0, mesh) in enumerate(meshes):
+            corners = mesh.triangles
+            lo = corners.min(axis=(0, 1)) - reach
+            hi = corners.max(axis=(0, 1)) + reach
+            h = max(reach, float((hi - lo).max()) / MESH_CELLS_PER_SIDE)
+            dims = np.maximum(np.ceil((hi - lo) / h).astype(int), 1)
+            tlo = np.floor((corners.min(axis=1) - reach / 2 - lo) / h).astype(int).clip(0, dims - 1)
+            thi = np.floor((corners.max(axis=1) + reach / 2 - lo) / h).astype(int).clip(0, dims - 1)
+            cells = [[] for _ in range(int(np.prod(dims)))]
+            for t in range(len(corners)):
+                for cx in range(tlo[t, 0], thi[t, 0] + 1):
+                    for cy in range(tlo[t, 1], thi[t, 1] + 1):
+                        for cz in range(tlo[t, 2], thi[t, 2] + 1):
+                            cells[(cx * dims[1] + cy) * dims[2] + cz].append(t0 + t)
+            for c in cells:
+                ids.extend(c)
+                starts.append(len(ids))
+            self.m_body[k], self.m_tri0[k], self.m_tri1[k] = b, t0, t0 + len(corners)
+            self.m_lo[k], self.m_dims[k], self.m_cell0[k], self.m_h[k] = lo, dims, cell0, h
+            cell0 += len(cells)
+        self.mc_start = ti.field(ti.i32, len(starts))
+        self.mc_tris = ti.field(ti.i32, max(len(ids), 1))
+        self.mc_start.from_numpy(np.array(starts, dtype=np.int32))
+        if ids:
+            self.mc_tris.from_numpy(np.array(ids, dtype=np.int32))
+        if self.n_tri:
+            self.t_corner.from_numpy(tris)
+            self.t_body.from_numpy(np.array(tri_body, dtype=np.int32))
+            self.t_mat.from_numpy(np.array(tri_mat, dtype=np.int32))
+
+    # ---------------------------------------------------------------- history slots
+    @ti.func
+    def find_slot(self, i, old, key):
+        slot = -1
+        for s in range(self.c_n[old, i]):
+            if self.c_key[old, i, s] == key:
+                slot = s
+        return slot
+
+    @ti.func
+    def store(self, i, new, cnt, key, xi, start, vn, ed):
+        if cnt < self.k_max:
+            self.c_key[new, i, cnt] = key
+            self.c_xi[new, i, cnt] = xi
+            self.c_start[new, i, cnt] = start
+            self.c_vn[new, i, cnt] = vn
+            self.c_ed[new, i, cnt] = ed
+        else:
+            self.monitor.overflow[None] = WALL_CONTACTS
+        return cnt + 1
+
+    @ti.func
+    def partner_class(self, key):
+        """Key of the partner for collision bookkeeping: triangles collapse to their mesh."""
+        out = key
+        if ti.static(self.n_mesh > 0) and key >= self.n + self.n_wall:
+            t = key - self.n - self.n_wall
+            for m in range(self.n_mesh):
+                if self.m_tri0[m] <= t < self.m_tri1[m]:
+                    out = self.n + self.n_wall + self.n_tri + m
+        return out
+
+    # ---------------------------------------------------------------- contacts of one particle
+    @ti.func
+    def contact(self, i, key, b, mat, delta, nb, cb, old, new, cnt, k, slot):
+        """Contact of particle i with a wall of body b found in body frame: (force, torque, count)."""
+        p, mo = self.p, self.mo
+        r = p.rep[i]
+        n = mo.vector_to_world(r, b, nb)
+        c = mo.point_to_world(r, b, cb)
+        w_wall = mo.w[r, b]
+        v_wall = mo.velocity_at(r, b, c)
+        arm = c - p.x[i]
+        v_rel = p.v[i] + p.w[i].cross(arm) - v_wall
+        xi = ti.Vector([0.0, 0.0, 0.0])
+        start, vn0, ed = k, v_rel.dot(n), 0.0
+        if slot >= 0:
+            xi = self.c_xi[old, i, slot]
+            start, vn0, ed = self.c_start[old, i, slot], self.c_vn[old, i, slot], self.c_ed[old, i, slot]
+        mi = p.mat[i]
+        fn, ft, xi, loss = self.tables.law(r, mi, mat, delta, n, v_rel, xi, p.mass[i], p.rad[i], p.dt[None])
+        roll = rolling_torque(fn, self.tables.mu_r[r, mi, mat], p.rad[i], p.w[i] - w_wall)
+        f_i = -fn * n + ft
+        self.acc_f[i, b] += -f_i
+        self.acc_tq[i, b] += mo.lever(r, b, c).cross(-f_i)
+        self.acc_tq_roll[i, b] += -roll
+        self.acc_pw[i, b] += f_i.dot(v_wall)
+        self.acc_pw_roll[i, b] += roll.dot(w_wall)
+        loss -= roll.dot(p.w[i] - w_wall)
+        self.monitor.overlap(delta / p.rad[i])
+        cnt = self.store(i, new, cnt, key, xi, start, vn0, ed + loss * p.dt[None])
+        return f_i, arm.cross(ft) + roll, cnt
+
+    @ti.func
+    def mesh_slot(self, i, old, key, m, xb):
+        """History slot for a triangle contact: the triangle's own, else one inherited from a
+        triangle of the same mesh the particle has left (a ball rolling across facets)."""
+        slot = self.find_slot(i, old, key)
+        if slot < 0:
+            base = self.n + self.n_wall
+            for s in range(self.c_n[old, i]):
+                t = self.c_key[old, i, s] - base
+                if slot < 0 and self.m_tri0[m] <= t < self.m_tri1[m]:
+                    q, _ = closest_point_on_triangle(xb, self.t_corner[t, 0], self.t_corner[t, 1], self.t_corner[t, 2])
+                    if (q - xb).norm() >= self.p.rad[i]:
+                        slot = s
+        return slot
+
+    @ti.func
+    def mesh_contacts(self, i, m, old, new, cnt, k):
+        """Face contacts with every triangle touched; if none, the deepest edge/vertex contact.
+
+        One pass over the triangles of the particle's cell plus one extra iteration that
+        resolves the deepest edge/vertex contact, so the contact code is compiled once.
+        """
+        f_i = ti.Vector([0.0, 0.0, 0.0])
+        t_i = ti.Vector([0.0, 0.0, 0.0])
+        b = self.m_body[m]
+        xb = self.mo.to_body(self.p.rep[i], b, self.p.x[i])
+        rad = self.p.rad[i]
+        cell = ti.floor((xb - self.m_lo[m]) / self.m_h[m], ti.i32)
+        dims = self.m_dims[m]
+        if 0 <= cell[0] < dims[0] and 0 <= cell[1] < dims[1] and 0 <= cell[2] < dims[2]:
+            c = self.m_cell0[m] + (cell[0] * dims[1] + cell[1]) * dims[2] + cell[2]
+            faces, best_t, best_delta = 0, -1, 0.0
+            q_end = self.mc_start[c + 1]
+            for q in range(self.mc_start[c], q_end + 1):
+                t = best_t
+                if q < q_end:
+                    t = self.mc_tris[q]
+                if t >= 0 and (q < q_end or faces == 0):
+                    p, face = closest_point_on_triangle(xb, self.t_corner[t, 0], self.t_corner[t, 1], self.t_corner[t, 2])
+                    d = p - xb
+                    dist = d.norm()
+                    delta = rad - dist
+                    touch = delta > 0.0 and dist > 0.0 and (face == 1 or q == q_end)
+                    if delta > best_delta and face == 0 and q < q_end:
+                        best_t, best_delta = t, delta
+                    if touch:
+                        faces += face
+                        key = self.n + self.n_wall + t
+                        slot = self.mesh_slot(i, old, key, m, xb)
+                        df, dt_, cnt = self.contact(i, key, b, self.t_mat[t], delta, d / dist, p, old, new, cnt, k, slot)
+                        f_i += df
+                        t_i += dt_
+        return f_i, t_i, cnt
+
+    @ti.func
+    def forces(self, i, k):
+        """All wall contacts of particle i at step k: (force, torque); logs finished collisions."""
+        old, new = (k + 1) % 2, k % 2
+        p = self.p
+        r = p.rep[i]
+        f = ti.Vector([0.0, 0.0, 0.0])
+        t = ti.Vector([0.0, 0.0, 0.0])
+        cnt = 0
+        last_b, xb = -1, p.x[i]
+        for w in range(self.n_wall if ti.static(self.n_wall > 0) else 0):
+            b = self.w_body[w]
+            if b != last_b:  # walls are grouped by body
+                xb, last_b = self.mo.to_body(r, b, p.x[i]), b
+            delta, nb, cb = wall_geometry(
+                self.w_kind[w], self.w_point[w], self.w_axis[w], self.w_radius[w], self.w_half[w], xb, p.rad[i]
+            )
+            if delta > 0.0:
+                slot = self.find_slot(i, old, self.n + w)
+                df, dt_, cnt = self.contact(i, self.n + w, b, self.w_mat[w], delta, nb, cb, old, new, cnt, k, slot)
+                f += df
+                t += dt_
+        if ti.static(self.n_mesh > 0):
+            for m in range(self.n_mesh):
+                df, dt_, cnt = self.mesh_contacts(i, m, old, new, cnt, k)
+                f += df
+                t += dt_
+        self.c_n[new, i] = ti.min(cnt, self.k_max)
+        if ti.static(self.collision_log):
+            self.finish_collisions(i, old, new, k)
+        return f, t
+
+    @ti.func
+    def finish_collisions(self, i, old, new, k):
+        """Log the wall contacts of i that ended at step k."""
+        for s in range(self.c_n[old, i]):
+            key = self.c_key[old, i, s]
+            cls = self.partner_class(key)
+            start = self.c_start[old, i, s]
+            alive = False
+            for s2 in range(self.c_n[new, i]):
+                if self.c_start[new, i, s2] == start and self.partner_class(self.c_key[new, i, s2]) == cls:
+                    alive = True
+            if not alive:
+                self.monitor.collision(i, cls, start, k, self.c_vn[old, i, s], self.c_ed[old, i, s])
+
+    # ---------------------------------------------------------------- loads
+    @ti.kernel
+    def _export_loads(self, out: ti.types.ndarray()):
+        """Sum the per-particle wall-load accumulators per (replica, body), in particle order."""
+        for r, b in ti.ndrange(self.p.n_rep, self.n_body):
+            acc = ti.Vector([0.0] * 11)
+            for i in range(self.p.rep_start[r], self.p.rep_end[r]):
+                f, tq, tr = self.acc_f[i, b], self.acc_tq[i, b], self.acc_tq_roll[i, b]
+                acc += ti.Vector([f[0], f[1], f[2], tq[0], tq[1], tq[2], tr[0], tr[1], tr[2],
+                                  self.acc_pw[i, b], self.acc_pw_roll[i, b]])
+                self.acc_f[i, b] = ti.Vector([0.0, 0.0, 0.0])
+                self.acc_tq[i, b] = ti.Vector([0.0, 0.0, 0.0])
+                self.acc_tq_roll[i, b] = ti.Vector([0.0, 0.0, 0.0])
+                self.acc_pw[i, b] = 0.0
+                self.acc_pw_roll[i, b] = 0.0
+            for c in ti.static(range(11)):
+                out[r, b, c] = acc[c]
+
+    def drain_loads(self, steps: int) -> dict[str, np.ndarray]:
+        """Mean wall loads per (replica, body) over the last `steps` steps (N, N m, W)."""
+        out = np.zeros((self.p.n_rep, max(self.n_body, 1), 11))
+        self._export_loads(out)
+        out /= max(steps, 1)
+        return {"force": out[..., 0:3], "torque": out[..., 3:6], "torque_rolling": out[..., 6:9],
+                "power": out[..., 9], "power_rolling": out[..., 10]}
