@@ -80,8 +80,9 @@ def hertz_mindlin(delta, n, v_rel, xi, m_eff, r_eff, e_star, g_star, zeta, mu_s,
     gamma_t = 2.0 * SQRT_5_6 * zeta * ti.sqrt(s_t * m_eff)
     f_t = f_spring - gamma_t * v_t
     loss = (fn - f_elastic) * v_n + gamma_t * v_t.dot(v_t)
-    if f_spring.norm() > f_cap:
-        f_t = f_spring * (f_cap / f_spring.norm())
+    f_spring_len = f_spring.norm()
+    if f_spring_len > f_cap:
+        f_t = f_spring * (f_cap / f_spring_len)
         xi_new = -f_t / s_t
         loss = (fn - f_elastic) * v_n - f_t.dot(v_t)
     return fn, f_t, xi_new, loss

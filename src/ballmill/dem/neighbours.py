@@ -41,10 +41,11 @@ class NeighbourList:
         self.xi = ti.Vector.field(3, float, (n, k))
         self.vn0 = ti.field(float, (n, k))
         self.ed = ti.field(float, (n, k))
-        # force on i and torques on i and j per slot, written every step
+        # per open contact: force on i and torque on j; per particle: sums over its own list
         self.f = ti.Vector.field(3, float, (n, k))
-        self.t_i = ti.Vector.field(3, float, (n, k))
         self.t_j = ti.Vector.field(3, float, (n, k))
+        self.f_own = ti.Vector.field(3, float, n)
+        self.t_own = ti.Vector.field(3, float, n)
         # scratch for a rebuild: the new list of i before it replaces the old one
         self.new_j = ti.field(ti.i32, (n, k))
         self.new_start = ti.field(ti.i32, (n, k))
@@ -208,18 +209,16 @@ class NeighbourList:
     # ------------------------------------------------------------------ per step
     @ti.func
     def gather(self, i):
-        """Sum of the pair forces and torques on i, in slot order (N, N m)."""
-        f = ti.Vector([0.0, 0.0, 0.0])
-        t = ti.Vector([0.0, 0.0, 0.0])
-        for s in range(self.nb_n[i]):
-            f += self.f[i, s]
-            t += self.t_i[i, s]
+        """Forces and torques of i's open contacts: its own list's sum, then the lower
+        partners' slots in id order (N, N m)."""
+        f, t = self.f_own[i], self.t_own[i]
         for q in range(self.rv_n[i]):
             slot = self.rv_slot[i, q]
             if slot >= 0:  # always, unless j's list overflowed (then the run stops)
                 j, s = slot // self.k_max, slot % self.k_max
-                f -= self.f[j, s]
-                t += self.t_j[j, s]
+                if self.start[j, s] >= 0:
+                    f -= self.f[j, s]
+                    t += self.t_j[j, s]
         return f, t
 
     @ti.func

@@ -7,7 +7,9 @@ from .contact import rolling_torque
 
 @ti.data_oriented
 class PairContacts:
-    """Writes each pair's force and torques into its list slot and keeps its history there."""
+    """Sums the contacts of i with its partners j > i, in slot order, for i; writes what j
+    needs (force on i, torque on j) into the pair's list slot, valid while the contact is
+    open (start >= 0); keeps each pair's history in its slot."""
 
     def __init__(self, particles, tables, nlist, monitor, collision_log: bool):
         self.p, self.tables, self.nl, self.monitor = particles, tables, nlist, monitor
@@ -19,12 +21,12 @@ class PairContacts:
         p, nl = self.p, self.nl
         zero = ti.Vector([0.0, 0.0, 0.0])
         dt = p.dt[None]
+        f_i, t_i = zero, zero
         for s in range(nl.nb_n[i]):
             j = nl.nb_j[i, s]
             d = p.x[j] - p.x[i]
             sum_r = p.rad[i] + p.rad[j]
             dist2 = d.dot(d)
-            f, t_a, t_b = zero, zero, zero
             if dist2 < sum_r * sum_r and dist2 > 0.0:
                 dist = ti.sqrt(dist2)
                 delta = sum_r - dist
@@ -39,16 +41,17 @@ class PairContacts:
                 r_eff = p.rad[i] * p.rad[j] / sum_r
                 fn, ft, xi, loss = self.tables.law(r, ma, mb, delta, n, v_rel, xi, m_eff, r_eff, dt)
                 mu_r = self.tables.mu_r[r, ma, mb]
-                roll_a = rolling_torque(fn, mu_r, p.rad[i], p.w[i] - p.w[j])
-                roll_b = rolling_torque(fn, mu_r, p.rad[j], p.w[j] - p.w[i])
-                f = -fn * n + ft
-                t_a = (ca * n).cross(ft) + roll_a
-                t_b = (cb * n).cross(ft) + roll_b
+                roll = rolling_torque(fn, mu_r, 1.0, p.w[i] - p.w[j])  # per metre of radius
+                roll_a, roll_b = p.rad[i] * roll, -p.rad[j] * roll
                 loss -= roll_a.dot(p.w[i]) + roll_b.dot(p.w[j])
                 self.monitor.overlap(delta / ti.min(p.rad[i], p.rad[j]))
                 nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s] = start, xi, vn0, ed + loss * dt
+                nl.f[i, s] = -fn * n + ft
+                f_i += nl.f[i, s]
+                t_i += (ca * n).cross(ft) + roll_a
+                nl.t_j[i, s] = (cb * n).cross(ft) + roll_b
             elif nl.start[i, s] >= 0:  # the contact ended at this step
                 if ti.static(self.collision_log):
                     self.monitor.collision(i, j, nl.start[i, s], k, nl.vn0[i, s], nl.ed[i, s])
                 nl.start[i, s] = -1
-            nl.f[i, s], nl.t_i[i, s], nl.t_j[i, s] = f, t_a, t_b
+        nl.f_own[i], nl.t_own[i] = f_i, t_i
