@@ -39,7 +39,7 @@ def scaled_drum(n_balls: int) -> DrumConfig:
 
 
 def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, profile_steps: int,
-          precision: str = "f64", skin: float = 0.3) -> dict:
+          precision: str = "f64", skin: float = 0.5) -> dict:
     """Throughput of one drum case: a ball count (the scaled reference drum) or 'bpr19'."""
     drum, material = (BPR19, MaterialConfig()) if case == "bpr19" else (scaled_drum(int(case)), STEEL_E2E8)
     sim = SimConfig(arch=arch, threads=threads, precision=precision, settle_s=settle_s, duration_s=rotate_s,
@@ -90,7 +90,7 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--arch", default="cpu", choices=["cpu", "cuda"])
     parser.add_argument("--precision", default="f64", choices=["f64", "f32"])
     parser.add_argument("--threads", type=int, default=0, help="CPU threads (0: all cores)")
-    parser.add_argument("--skin", type=float, default=0.3, help="neighbour skin / largest ball radius")
+    parser.add_argument("--skin", type=float, default=0.5, help="neighbour skin / largest ball radius")
     parser.add_argument("--settle", type=float, default=0.3, help="settling time (s)")
     parser.add_argument("--rotate", type=float, default=1.0, help="timed rotation (s)")
     parser.add_argument("--profile-steps", type=int, default=50)

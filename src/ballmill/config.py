@@ -54,7 +54,7 @@ class SimConfig:
     steady_after_s: float = rng(0.5, 0.0, None, doc="power is averaged over samples later than this after start (s)")
     trajectory_every: int = rng(0, 0, None, doc="record particle states every n samples (0: never)")
     max_contacts_per_particle: int = rng(16, 1, None, doc="neighbour-list and wall-contact slots per particle")
-    neighbour_skin: float = rng(0.3, 0.0, None, lo_open=True,
+    neighbour_skin: float = rng(0.5, 0.0, None, lo_open=True,
                                 doc="Verlet skin / largest ball radius (larger: fewer list rebuilds, more candidates)")
     event_capacity: int = rng(200_000, 1, None)
     max_overlap_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True)

@@ -31,6 +31,8 @@ class NeighbourList:
         n, reps = spec.n_particles, spec.n_replicas
         self.p, self.monitor = particles, monitor
         self.n, self.n_rep, self.k_max, self.skin, self.use_grid = n, reps, capacity, skin_m, use_grid
+        # on a CPU one thread bins faster than launching threads; a GPU bins in parallel, then sorts
+        self.serial_binning = ti.lang.impl.current_cfg().arch == ti.cpu
         k = capacity
         self.nb_n = ti.field(ti.i32, n)
         self.nb_j = ti.field(ti.i32, (n, k))
@@ -193,14 +195,20 @@ class NeighbourList:
         if ti.static(self.use_grid):
             for c in self.cell_count:
                 self.cell_count[c] = 0
-            for i in range(self.n):
-                self.bin(i)
-            for c in self.cell_count:
-                self.sort_row(self.cell_list, c, ti.min(self.cell_count[c], self.cell_cap))
+            if ti.static(self.serial_binning):
+                ti.loop_config(serialize=True)
+                for i in range(self.n):  # in id order, so each cell is already sorted
+                    self.bin(i)
+            else:
+                for i in range(self.n):
+                    self.bin(i)
+                for c in self.cell_count:
+                    self.sort_row(self.cell_list, c, ti.min(self.cell_count[c], self.cell_cap))
         for i in range(self.n):
             self.build_particle(i)
         for i in range(self.n):
             self.link_reverse(i)
+        ti.loop_config(serialize=True)
         for r in range(self.n_rep):
             self.due[r] = 0
         self.any_due[None] = 0
