@@ -1,4 +1,5 @@
-"""Small systems for the physics tests (BALLMILL_TEST_ARCH=cuda runs them on a GPU)."""
+"""Small systems for the physics tests (BALLMILL_TEST_ARCH=cuda runs them on a GPU,
+BALLMILL_TEST_PRECISION=f32 in single precision)."""
 
 import os
 
@@ -32,7 +33,7 @@ def floor_system(material, radius, velocities, restitutions=(1.0,), friction=0.0
 
 
 def run(spec, dt, duration, sample_every=None, trajectory_every=0, **options):
-    init_taichi(os.environ.get("BALLMILL_TEST_ARCH", "cpu"), "f64")
+    init_taichi(os.environ.get("BALLMILL_TEST_ARCH", "cpu"), os.environ.get("BALLMILL_TEST_PRECISION", "f64"))
     engine = Engine(spec, EngineOptions(dt_s=dt, **options))
     results = engine.run(duration, sample_every or duration, Recorder(engine, trajectory_every))
     return engine, results

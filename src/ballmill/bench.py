@@ -5,7 +5,8 @@ volume at bed porosity 0.4 (~8,600 balls), 70 % of critical speed, E = 2e8 Pa, v
 rho 7900, e 0.5, mu 0.5, mu_r 0.01, dt 20 % of Rayleigh; settle, then rotate.
 Other sizes scale D and L by (N / 8600)^(1/3).  `bpr19` is the paper's mill at BPR 19 instead:
 D 1.743 m, L 2.614 m, 523 balls of 160 mm, 15 rpm, physical steel (G 77 GPa), dt 1.74e-5 s.
-Figures are printed as a table and written as JSON (`--json`).
+Figures are printed as a table and written as JSON (`--json`); `--peer liggghts` runs the same
+drums in LIGGGHTS (1 and 2 MPI ranks) in the same session and adds the ratios.
 
 `--lab`: the MM400 batch instead, a 10 x 10 grid of ball-wall restitution x friction, one
 17.6 mm ball per jar at 25 Hz, 2 s each, all replicas in one launch.
@@ -26,6 +27,7 @@ import numpy as np
 from .config import DrumConfig, InteractionConfig, MaterialConfig, SimConfig
 from .dem import Engine, init_taichi
 from .drum import ball_count, build_materials, drum_system, engine_options, time_step_s
+from .peer import liggghts_rates
 
 REFERENCE = DrumConfig(inner_diameter_m=0.4, inner_length_m=0.2, ball_radius_m=0.005)
 STEEL_E2E8 = MaterialConfig(shear_modulus_pa=2e8 / 2.6)  # E = 2G(1+v) = 2e8 Pa
@@ -39,7 +41,7 @@ def scaled_drum(n_balls: int) -> DrumConfig:
 
 
 def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, profile_steps: int,
-          precision: str = "f64", skin: float = 0.5) -> dict:
+          precision: str = "f64", skin: float = 0.5, peer: str | None = None) -> dict:
     """Throughput of one drum case: a ball count (the scaled reference drum) or 'bpr19'."""
     drum, material = (BPR19, MaterialConfig()) if case == "bpr19" else (scaled_drum(int(case)), STEEL_E2E8)
     sim = SimConfig(arch=arch, threads=threads, precision=precision, settle_s=settle_s, duration_s=rotate_s,
@@ -59,12 +61,19 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
     phases = engine.profile(profile_steps)
     total = sum(phases.values())
     power, se = res.mean_power_w("drum", after_s=settle_s + 0.3 * rotate_s)
+    rate = spec.n_particles * steps / wall
+    peers = {}
+    if peer == "liggghts":
+        peers = liggghts_rates(spec, drum, material, PAIRS["steel-steel"], engine.dt, settle_s, rotate_s,
+                               engine.nl.skin)
+        peers |= {f"ratio_to_{k}": rate / v for k, v in list(peers.items())}
     return {
         "case": case, "balls": spec.n_particles, "arch": arch, "threads": threads or "all", "precision": precision,
         "mode": "serial" if engine.serial else "parallel", "dt_s": engine.dt, "skin_fraction": skin,
-        "particle_steps_per_s": spec.n_particles * steps / wall, "steps_per_rebuild": steps / max(builds, 1),
+        "particle_steps_per_s": rate, "steps_per_rebuild": steps / max(builds, 1),
         "contacts_per_particle": contacts, "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "power_w": power, "power_se_w": se, **{f"share_{k.replace(' ', '_')}": v / total for k, v in phases.items()},
+        **peers,
     }
 
 
@@ -96,6 +105,7 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--profile-steps", type=int, default=50)
     parser.add_argument("--lab", action="store_true", help="the MM400 10 x 10 grid instead of the drum")
     parser.add_argument("--lab-duration", type=float, default=2.0, help="simulated time per MM400 replica (s)")
+    parser.add_argument("--peer", choices=["liggghts"], help="run the same drums in LIGGGHTS (1 and 2 MPI ranks)")
     parser.add_argument("--json", default="outputs/bench/bench.json", help="where the figures are written")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -103,7 +113,7 @@ def main(argv: list[str]) -> None:
         rows = [bench_lab(args.threads, args.lab_duration)]
     else:
         rows = [bench(c, args.arch, args.threads, args.settle, args.rotate, args.profile_steps, args.precision,
-                      args.skin) for c in args.balls]
+                      args.skin, args.peer) for c in args.balls]
     keys = list(rows[0])
     print("\n" + " | ".join(keys))
     for r in rows:
