@@ -59,8 +59,10 @@ def hertz_mindlin(delta, n, v_rel, xi, m_eff, r_eff, e_star, g_star, zeta, mu_s,
     accumulated tangential displacement `xi` (rotated into the current tangent plane with its
     length kept), damped like the normal; when |S_t xi| > mu_s F_n the contact slides: the
     spring force is scaled to the cap, xi reset to match and damping dropped (LIGGGHTS
-    tangential_model history).  Returns (F_n >= 0, tangential force on a, new xi, power
-    dissipated (W): normal and tangential damping plus sliding friction).
+    tangential_model history).  Returns F_n >= 0, the tangential force on a, the new xi and
+    energy terms: the power dissipated by normal damping (W), the power the relative motion
+    puts into the tangential spring, damper and slider, -F_t . v_t (W), the Hertz energy
+    2/5 F_el delta and the spring energy 1/2 S_t |xi|^2 (J).
     """
     sqrt_rd = ti.sqrt(r_eff * delta)
     s_n = 2.0 * e_star * sqrt_rd
@@ -79,13 +81,12 @@ def hertz_mindlin(delta, n, v_rel, xi, m_eff, r_eff, e_star, g_star, zeta, mu_s,
     f_cap = mu_s * fn
     gamma_t = 2.0 * SQRT_5_6 * zeta * ti.sqrt(s_t * m_eff)
     f_t = f_spring - gamma_t * v_t
-    loss = (fn - f_elastic) * v_n + gamma_t * v_t.dot(v_t)
     f_spring_len = f_spring.norm()
     if f_spring_len > f_cap:
         f_t = f_spring * (f_cap / f_spring_len)
         xi_new = -f_t / s_t
-        loss = (fn - f_elastic) * v_n - f_t.dot(v_t)
-    return fn, f_t, xi_new, loss
+    energy = ti.Vector([(fn - f_elastic) * v_n, -f_t.dot(v_t), 0.4 * f_elastic * delta, 0.5 * s_t * xi_new.dot(xi_new)])
+    return fn, f_t, xi_new, energy
 
 
 @ti.func

@@ -23,6 +23,7 @@ import numpy as np
 import taichi as ti
 
 from .contact import PairTables
+from .energy import EnergyBook
 from .monitor import CELL, NEIGHBOURS, WALL_CONTACTS, Monitor
 from .motion import Motions
 from .neighbours import NeighbourList
@@ -83,8 +84,9 @@ class Engine:
         self.mo = Motions(spec, self.n_rep)
         self.nl = NeighbourList(spec, self.p, self.monitor, k, options.skin_fraction * float(spec.radius_m.max()),
                                 self.use_grid)
-        self.pairs = PairContacts(self.p, self.tables, self.nl, self.monitor, options.collision_log)
-        self.walls = Walls(spec, self.p, self.tables, self.mo, self.monitor, k, options.collision_log)
+        self.book = EnergyBook(self.p)
+        self.pairs = PairContacts(self.p, self.tables, self.nl, self.monitor, self.book, options.collision_log)
+        self.walls = Walls(spec, self.p, self.tables, self.mo, self.monitor, self.book, k, options.collision_log)
         self.x, self.v, self.w = self.p.x, self.p.v, self.p.w
         self.max_overlap = self.monitor.max_overlap
         self.step_index = 0
@@ -92,6 +94,7 @@ class Engine:
         self._first_forces()
         self._due = bool(self.nl.any_due[None])
         self._accumulated_steps = 1
+        self.initial_energy_j = _stored(self._energy_now())
 
     def _choose_serial(self) -> bool:
         cfg = ti.lang.impl.current_cfg()
@@ -272,6 +275,27 @@ class Engine:
                 f"sim.event_capacity={m.capacity}: raise it or sample more often"
             )
 
+    def energies(self) -> dict[str, np.ndarray]:
+        """Per replica (J): kinetic, rotational, potential (zero at the origin) and elastic energy
+        now; the cumulative wall work and dissipation (energy.CHANNELS); and the residual of the
+        balance since the engine was built, work - change of stored energy - dissipation."""
+        out = self._energy_now()
+        lost = out["dissipated_normal_j"] + out["dissipated_tangential_j"] + out["dissipated_rolling_j"]
+        out["residual_j"] = out["wall_work_j"] - (_stored(out) - self.initial_energy_j) - lost
+        return out
+
+    def _energy_now(self) -> dict[str, np.ndarray]:
+        x, v, w = self.x.to_numpy(), self.v.to_numpy(), self.w.to_numpy()
+        m, reps = self.p.mass_np, self.spec.replica
+
+        def per_replica(q):
+            return np.bincount(reps, q, minlength=self.n_rep)
+
+        return {"kinetic_j": per_replica(0.5 * m * (v**2).sum(1)),
+                "rotational_j": per_replica(0.2 * m * self.spec.radius_m**2 * (w**2).sum(1)),
+                "potential_j": per_replica(-m * (x @ np.asarray(self.spec.gravity_m_per_s2))),
+                **self.book.totals()}
+
     def drain_events(self) -> tuple[np.ndarray, np.ndarray]:
         """Collisions ended since the last call: ints (i, partner, start, end step), values."""
         return self.monitor.drain()
@@ -285,3 +309,7 @@ class Engine:
     def wall_axis(self) -> np.ndarray:
         """(replicas, bodies, 3) motion axes (world)."""
         return self.mo.axis.to_numpy()
+
+
+def _stored(energy: dict[str, np.ndarray]) -> np.ndarray:
+    return energy["kinetic_j"] + energy["rotational_j"] + energy["potential_j"] + energy["elastic_j"]

@@ -11,8 +11,8 @@ class PairContacts:
     needs (force on i, torque on j) into the pair's list slot, valid while the contact is
     open (start >= 0); keeps each pair's history in its slot."""
 
-    def __init__(self, particles, tables, nlist, monitor, collision_log: bool):
-        self.p, self.tables, self.nl, self.monitor = particles, tables, nlist, monitor
+    def __init__(self, particles, tables, nlist, monitor, book, collision_log: bool):
+        self.p, self.tables, self.nl, self.monitor, self.book = particles, tables, nlist, monitor, book
         self.collision_log = collision_log
 
     @ti.func
@@ -22,6 +22,7 @@ class PairContacts:
         zero = ti.Vector([0.0, 0.0, 0.0])
         dt = p.dt[None]
         f_i, t_i = zero, zero
+        energy = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])  # normal, tangential, rolling (W); Hertz, spring (J)
         for s in range(nl.nb_n[i]):
             j = nl.nb_j[i, s]
             d = p.x[j] - p.x[i]
@@ -39,13 +40,14 @@ class PairContacts:
                 r, ma, mb = p.rep[i], p.mat[i], p.mat[j]
                 m_eff = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j])
                 r_eff = p.rad[i] * p.rad[j] / sum_r
-                fn, ft, xi, loss = self.tables.law(r, ma, mb, delta, n, v_rel, xi, m_eff, r_eff, dt)
+                fn, ft, xi, e = self.tables.law(r, ma, mb, delta, n, v_rel, xi, m_eff, r_eff, dt)
                 mu_r = self.tables.mu_r[r, ma, mb]
                 roll = rolling_torque(fn, mu_r, 1.0, p.w[i] - p.w[j])  # per metre of radius
                 roll_a, roll_b = p.rad[i] * roll, -p.rad[j] * roll
-                loss -= roll_a.dot(p.w[i]) + roll_b.dot(p.w[j])
+                loss_r = -(roll_a.dot(p.w[i]) + roll_b.dot(p.w[j]))
+                energy += ti.Vector([e[0], e[1], loss_r, e[2], e[3]])
                 self.monitor.overlap(delta / ti.min(p.rad[i], p.rad[j]))
-                nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s] = start, xi, vn0, ed + loss * dt
+                nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s] = start, xi, vn0, ed + (e[0] + e[1] + loss_r) * dt
                 nl.f[i, s] = -fn * n + ft
                 f_i += nl.f[i, s]
                 t_i += (ca * n).cross(ft) + roll_a
@@ -55,3 +57,5 @@ class PairContacts:
                     self.monitor.collision(i, j, nl.start[i, s], k, nl.vn0[i, s], nl.ed[i, s])
                 nl.start[i, s] = -1
         nl.f_own[i], nl.t_own[i] = f_i, t_i
+        self.book.add(i, 0.0, energy[0], energy[1], energy[2])
+        self.book.hold(i, energy[3], energy[4], self.book.elastic_pairs, self.book.spring_pairs)

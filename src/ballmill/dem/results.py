@@ -20,7 +20,9 @@ class Results:
     body's motion axis (N m) and power delivered by the body to the particles (W); the
     `_rolling` columns hold the rolling-friction part, which EDEM leaves out of geometry
     torque: `torque_axis_nm` and `power_w` exclude it, add the `_rolling` column to include it.
-    energy: kinetic and potential energy per replica (J).
+    energy: per replica, kinetic, rotational, potential and elastic energy, the cumulative
+    work of the walls and energy dissipated (normal, tangential, rolling), and the residual of
+    the balance (J), see `Engine.energies`.
     collisions: one row per finished contact.
     trajectories: particle states at each sample (when recorded).
     """
@@ -76,21 +78,10 @@ class Recorder:
                 force_x_n=loads["force"][:, b, 0], force_y_n=loads["force"][:, b, 1],
                 force_z_n=loads["force"][:, b, 2],
             )
-        x, v, w = engine.x.to_numpy(), engine.v.to_numpy(), engine.w.to_numpy()
-        m = engine.p.mass_np
-        g = np.asarray(engine.spec.gravity_m_per_s2)
-
-        def per_replica(q):
-            return np.bincount(reps, q, minlength=engine.n_rep)
-
-        self._add(
-            "energy", t_s=t, replica=np.arange(engine.n_rep),
-            kinetic_j=per_replica(0.5 * m * (v**2).sum(1)),
-            rotational_j=per_replica(0.2 * m * engine.spec.radius_m**2 * (w**2).sum(1)),
-            potential_j=per_replica(-m * (x @ g)),
-        )
+        self._add("energy", t_s=t, replica=np.arange(engine.n_rep), **engine.energies())
         self._collisions(engine)
         if self.every and self.n_samples % self.every == 0:
+            x, v, w = engine.x.to_numpy(), engine.v.to_numpy(), engine.w.to_numpy()
             self._add(
                 "trajectories", t_s=t, replica=reps, particle=np.arange(engine.n),
                 x_m=x[:, 0], y_m=x[:, 1], z_m=x[:, 2],

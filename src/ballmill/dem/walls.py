@@ -21,8 +21,8 @@ MESH_CELLS_PER_SIDE = 64  # a mesh's bounding box is binned into at most this ma
 
 @ti.data_oriented
 class Walls:
-    def __init__(self, spec, particles, tables, motions, monitor, capacity: int, collision_log: bool):
-        self.p, self.tables, self.mo, self.monitor = particles, tables, motions, monitor
+    def __init__(self, spec, particles, tables, motions, monitor, book, capacity: int, collision_log: bool):
+        self.p, self.tables, self.mo, self.monitor, self.book = particles, tables, motions, monitor, book
         self.n, self.k_max, self.collision_log = spec.n_particles, capacity, collision_log
         self.n_body = len(spec.bodies)
         self._build_primitives(spec)
@@ -167,18 +167,20 @@ class Walls:
             xi = self.c_xi[old, i, slot]
             start, vn0, ed = self.c_start[old, i, slot], self.c_vn[old, i, slot], self.c_ed[old, i, slot]
         mi = p.mat[i]
-        fn, ft, xi, loss = self.tables.law(r, mi, mat, delta, n, v_rel, xi, p.mass[i], p.rad[i], p.dt[None])
+        fn, ft, xi, e = self.tables.law(r, mi, mat, delta, n, v_rel, xi, p.mass[i], p.rad[i], p.dt[None])
         roll = rolling_torque(fn, self.tables.mu_r[r, mi, mat], p.rad[i], p.w[i] - w_wall)
         f_i = -fn * n + ft
         self.acc_f[i, b] += -f_i
         self.acc_tq[i, b] += mo.lever(r, b, c).cross(-f_i)
         self.acc_tq_roll[i, b] += -roll
-        self.acc_pw[i, b] += f_i.dot(v_wall)
-        self.acc_pw_roll[i, b] += roll.dot(w_wall)
-        loss -= roll.dot(p.w[i] - w_wall)
+        power, power_roll = f_i.dot(v_wall), roll.dot(w_wall)
+        self.acc_pw[i, b] += power
+        self.acc_pw_roll[i, b] += power_roll
+        loss_r = -roll.dot(p.w[i] - w_wall)
+        self.book.add(i, power + power_roll, e[0], e[1], loss_r)
         self.monitor.overlap(delta / p.rad[i])
-        cnt = self.store(i, new, cnt, key, xi, start, vn0, ed + loss * p.dt[None])
-        return f_i, arm.cross(ft) + roll, cnt
+        cnt = self.store(i, new, cnt, key, xi, start, vn0, ed + (e[0] + e[1] + loss_r) * p.dt[None])
+        return f_i, arm.cross(ft) + roll, ti.Vector([e[2], e[3]]), cnt
 
     @ti.func
     def mesh_slot(self, i, old, key, m, xb):
@@ -204,6 +206,7 @@ class Walls:
         """
         f_i = ti.Vector([0.0, 0.0, 0.0])
         t_i = ti.Vector([0.0, 0.0, 0.0])
+        elastic = ti.Vector([0.0, 0.0])  # Hertz, spring (J)
         b = self.m_body[m]
         xb = self.mo.to_body(self.p.rep[i], b, self.p.x[i])
         rad = self.p.rad[i]
@@ -229,10 +232,12 @@ class Walls:
                         faces += face
                         key = self.n + self.n_wall + t
                         slot = self.mesh_slot(i, old, key, m, xb)
-                        df, dt_, cnt = self.contact(i, key, b, self.t_mat[t], delta, d / dist, p, old, new, cnt, k, slot)
+                        df, dt_, de, cnt = self.contact(i, key, b, self.t_mat[t], delta, d / dist, p, old, new, cnt, k,
+                                                        slot)
                         f_i += df
                         t_i += dt_
-        return f_i, t_i, cnt
+                        elastic += de
+        return f_i, t_i, elastic, cnt
 
     @ti.func
     def forces(self, i, k):
@@ -242,7 +247,7 @@ class Walls:
         r = p.rep[i]
         f = ti.Vector([0.0, 0.0, 0.0])
         t = ti.Vector([0.0, 0.0, 0.0])
-        cnt = 0
+        cnt, elastic = 0, ti.Vector([0.0, 0.0])  # Hertz, spring (J)
         last_b, xb = -1, p.x[i]
         for w in range(self.n_wall if ti.static(self.n_wall > 0) else 0):
             b = self.w_body[w]
@@ -253,15 +258,18 @@ class Walls:
             )
             if delta > 0.0:
                 slot = self.find_slot(i, old, self.n + w)
-                df, dt_, cnt = self.contact(i, self.n + w, b, self.w_mat[w], delta, nb, cb, old, new, cnt, k, slot)
+                df, dt_, de, cnt = self.contact(i, self.n + w, b, self.w_mat[w], delta, nb, cb, old, new, cnt, k, slot)
                 f += df
                 t += dt_
+                elastic += de
         if ti.static(self.n_mesh > 0):
             for m in range(self.n_mesh):
-                df, dt_, cnt = self.mesh_contacts(i, m, old, new, cnt, k)
+                df, dt_, de, cnt = self.mesh_contacts(i, m, old, new, cnt, k)
                 f += df
                 t += dt_
+                elastic += de
         self.c_n[new, i] = ti.min(cnt, self.k_max)
+        self.book.hold(i, elastic[0], elastic[1], self.book.elastic_walls, self.book.spring_walls)
         if ti.static(self.collision_log):
             self.finish_collisions(i, old, new, k)
         return f, t

@@ -1,0 +1,57 @@
+"""Energy bookkeeping: per particle, what the walls put in and what the contacts dissipated.
+
+Cumulative since the engine was built (J): work done by the walls (contact force at the
+wall's contact-point velocity plus rolling torque at the wall's spin), energy dissipated by
+normal damping, tangentially and by rolling friction; and the elastic energy stored in the
+particle's contacts now (Hertz plus tangential spring; a pair's is booked on its lower id).
+Tangential dissipation is what the relative motion puts into the tangential contact
+(-F_t . v_t) less the change of the springs' energy: damping, Coulomb sliding, and the
+energy a Mindlin spring loses as its stiffness falls with the overlap or its contact opens.
+Summed per replica in particle order, so the totals are as deterministic as the run.
+"""
+
+import numpy as np
+import taichi as ti
+
+CHANNELS = ("wall_work_j", "dissipated_normal_j", "dissipated_tangential_j", "dissipated_rolling_j")
+N_OUT = len(CHANNELS) + 1  # the channels and the elastic energy now
+
+
+@ti.data_oriented
+class EnergyBook:
+    def __init__(self, particles):
+        self.p = particles
+        n = particles.n
+        self.cumulative = ti.Vector.field(len(CHANNELS), float, n)
+        self.elastic_pairs = ti.field(float, n)
+        self.elastic_walls = ti.field(float, n)
+        self.spring_pairs = ti.field(float, n)
+        self.spring_walls = ti.field(float, n)
+
+    @ti.func
+    def add(self, i, work, normal, tangential, rolling):
+        """Book powers (W) over one time step."""
+        self.cumulative[i] += self.p.dt[None] * ti.Vector([work, normal, tangential, rolling])
+
+    @ti.func
+    def hold(self, i, hertz, spring, elastic: ti.template(), springs: ti.template()):
+        """Energy now in i's contacts of one kind (J); the springs' change is not dissipated."""
+        self.cumulative[i][2] -= spring - springs[i]
+        springs[i] = spring
+        elastic[i] = hertz + spring
+
+    @ti.kernel
+    def _export(self, out: ti.types.ndarray()):
+        for r in range(self.p.n_rep):
+            acc = ti.Vector([0.0] * N_OUT)
+            for i in range(self.p.rep_start[r], self.p.rep_end[r]):
+                c = self.cumulative[i]
+                acc += ti.Vector([c[0], c[1], c[2], c[3], self.elastic_pairs[i] + self.elastic_walls[i]])
+            for k in ti.static(range(N_OUT)):
+                out[r, k] = acc[k]
+
+    def totals(self) -> dict[str, np.ndarray]:
+        """Per replica: the cumulative channels and the elastic energy stored now (J)."""
+        out = np.zeros((self.p.n_rep, N_OUT))
+        self._export(out)
+        return {**{name: out[:, k] for k, name in enumerate(CHANNELS)}, "elastic_j": out[:, -1]}
