@@ -54,6 +54,8 @@ class SimConfig:
     steady_after_s: float = rng(0.5, 0.0, None, doc="power is averaged over samples later than this after start (s)")
     trajectory_every: int = rng(0, 0, None, doc="record particle states every n samples (0: never)")
     max_contacts_per_particle: int = rng(16, 1, None, doc="neighbour-list and wall-contact slots per particle")
+    checkpoint_every_s: float | None = rng(1.0, 0.0, None, lo_open=True,
+                                           doc="simulated time between checkpoints of a drum run (s); null: none")
     neighbour_skin: float = rng(0.5, 0.0, None, lo_open=True,
                                 doc="Verlet skin / largest ball radius (larger: fewer list rebuilds, more candidates)")
     event_capacity: int = rng(200_000, 1, None)

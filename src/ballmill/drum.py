@@ -7,7 +7,7 @@ import json
 import logging
 import math
 import tempfile
-from dataclasses import asdict, replace
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +15,7 @@ import numpy as np
 from .config import ConfigError, DrumConfig, InteractionConfig, MaterialConfig, SimConfig
 from .dem import (
     Body,
+    Checkpoint,
     Cylinder,
     Engine,
     EngineOptions,
@@ -139,11 +140,12 @@ def engine_options(sim: SimConfig, dt_s: float) -> EngineOptions:
 
 
 def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
-    """Hash of everything that determines a drum DEM result (prices and feeds do not)."""
+    """Hash of everything that determines a drum DEM result (prices and feeds do not, nor the
+    thread count, the neighbour skin or checkpoints: results are identical bits whatever they are)."""
+    numerics = {k: v for k, v in asdict(sim).items() if k not in ("threads", "neighbour_skin", "checkpoint_every_s")}
     payload = {
         "drum": asdict(drum), "materials": {k: asdict(v) for k, v in materials.items()},
-        "interactions": {k: asdict(v) for k, v in interactions.items()},
-        "sim": asdict(replace(sim, threads=0)),
+        "interactions": {k: asdict(v) for k, v in interactions.items()}, "sim": numerics,
     }
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -163,15 +165,17 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
     log.info("drum DEM: %d balls, dt = %.3g s (%.0f %% of Rayleigh), %s neighbour search, %s steps",
              spec.n_particles, dt, 100 * dt / spec.rayleigh_timestep_s(), "grid" if engine.use_grid else "all-pairs",
              "serial" if engine.serial else "parallel")
+    key = dem_key(drum, materials, interactions, sim)
+    checkpoint = Checkpoint(out_dir / "checkpoint.pkl", sim.checkpoint_every_s, key) if sim.checkpoint_every_s else None
     results = engine.run(sim.settle_s + sim.duration_s, sim.sample_every_s,
-                         Recorder(engine, sim.trajectory_every), label="drum")
+                         Recorder(engine, sim.trajectory_every), label="drum", checkpoint=checkpoint)
     results.write(out_dir)
     after = sim.settle_s + sim.steady_after_s
     power, power_se = results.mean_power_w("drum", after)
     power_roll, _ = results.mean_power_w("drum", after, rolling=True)
     loads = results.loads[results.loads.t_s > after]
     summary = {
-        "key": dem_key(drum, materials, interactions, sim),
+        "key": key,
         "balls": spec.n_particles, "speed_rpm": drum_speed_rpm(drum),
         "critical_speed_rpm": critical_speed_rpm(drum.inner_diameter_m, 2 * drum.ball_radius_m),
         "dt_s": dt, "rayleigh_dt_s": spec.rayleigh_timestep_s(),
@@ -182,4 +186,6 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
         "simulated_s": engine.time_s,
     }
     summary_path.write_text(json.dumps(summary, indent=2))
+    if checkpoint:
+        checkpoint.remove()
     return summary

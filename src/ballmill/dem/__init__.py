@@ -1,5 +1,6 @@
 """Discrete element engine: Hertz-Mindlin spheres and moving rigid walls in Taichi."""
 
+from .checkpoint import Checkpoint
 from .engine import Engine, EngineOptions, SimulationError
 from .geometry import Body, Capsule, Cylinder, Mesh, Motion, Plane
 from .materials import Interaction, Material
@@ -8,6 +9,6 @@ from .runtime import init_taichi
 from .system import SystemSpec
 
 __all__ = [
-    "Body", "Capsule", "Cylinder", "Engine", "EngineOptions", "Interaction", "Material", "Mesh",
+    "Body", "Capsule", "Checkpoint", "Cylinder", "Engine", "EngineOptions", "Interaction", "Material", "Mesh",
     "Motion", "Plane", "Recorder", "Results", "SimulationError", "SystemSpec", "init_taichi",
 ]

@@ -21,7 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import taichi as ti
+from taichi.lang.field import Field
 
+from .checkpoint import Checkpoint
 from .contact import PairTables
 from .energy import EnergyBook
 from .monitor import CELL, NEIGHBOURS, WALL_CONTACTS, Monitor
@@ -204,23 +206,47 @@ class Engine:
         return spent
 
     def run(self, duration_s: float, sample_every_s: float, recorder: Recorder | None = None,
-            label: str = "run") -> Results:
-        """Advance by duration_s, sampling every sample_every_s (rounded to whole steps)."""
+            label: str = "run", checkpoint: Checkpoint | None = None) -> Results:
+        """Advance by duration_s, sampling every sample_every_s (rounded to whole steps); with a
+        checkpoint, continue an interrupted run from it and save one every checkpoint.every_s."""
         recorder = recorder or Recorder(self)
         per_sample = max(1, round(sample_every_s / self.dt))
         n_samples = max(1, round(duration_s / (per_sample * self.dt)))
+        first = checkpoint.resume(self, recorder, label) if checkpoint else 0
+        saved_at = self.time_s
         t_wall, last_log = time.perf_counter(), time.perf_counter()
-        for s in range(n_samples):
+        for s in range(first, n_samples):
             self.advance(per_sample)
             self.check()
             recorder.sample(self)
+            if checkpoint and s < n_samples - 1 and self.time_s - saved_at >= checkpoint.every_s - 0.5 * self.dt:
+                checkpoint.save(self, recorder, s + 1, label)
+                saved_at = self.time_s
             now = time.perf_counter()
             if now - last_log > self.opt.progress_every_s or s == n_samples - 1:
-                rate = (s + 1) * per_sample * self.n / (now - t_wall)
+                rate = (s + 1 - first) * per_sample * self.n / (now - t_wall)
                 log.info("%s: t=%.4f s (%d/%d samples), %.3g particle-steps/s", label,
                          self.time_s, s + 1, n_samples, rate)
                 last_log = now
         return recorder.results()
+
+    def _state_fields(self):
+        for part in ("p", "mo", "nl", "walls", "book", "monitor"):
+            for name, value in vars(getattr(self, part)).items():
+                if isinstance(value, Field):
+                    yield f"{part}.{name}", value
+
+    def state(self) -> dict:
+        """Everything a run needs to continue: every field of every part, and the counters."""
+        return {"fields": {name: f.to_numpy() for name, f in self._state_fields()},
+                "step_index": self.step_index, "due": self._due, "accumulated_steps": self._accumulated_steps,
+                "initial_energy_j": self.initial_energy_j}
+
+    def restore(self, state: dict) -> None:
+        for name, f in self._state_fields():
+            f.from_numpy(state["fields"][name])
+        self.step_index, self._due = state["step_index"], state["due"]
+        self._accumulated_steps, self.initial_energy_j = state["accumulated_steps"], state["initial_energy_j"]
 
     @property
     def time_s(self) -> float:

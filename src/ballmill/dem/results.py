@@ -117,6 +117,13 @@ class Recorder:
             dissipated_j=vals[:, 1],
         )
 
+    def state(self) -> dict:
+        return {"n_samples": self.n_samples, "columns": {k: dict(v) for k, v in self.columns.items()}}
+
+    def restore(self, state: dict) -> None:
+        self.n_samples = state["n_samples"]
+        self.columns = {k: defaultdict(list, v) for k, v in state["columns"].items()}
+
     def results(self) -> Results:
         frames = {
             name: pd.DataFrame({k: np.concatenate(v) for k, v in cols.items()}) for name, cols in self.columns.items()

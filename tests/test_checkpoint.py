@@ -1,0 +1,51 @@
+"""Checkpoint and restart: a drum run killed part-way and started again ends with the tables of
+an uninterrupted run, bit for bit."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+
+RUN = """
+import logging
+import sys
+logging.basicConfig(level=logging.INFO)
+from ballmill.config import DrumConfig, InteractionConfig, MaterialConfig, SimConfig
+from ballmill.drum import simulate_drum
+sim = SimConfig(shear_modulus_scale=1e-2, settle_s=0.1, duration_s=0.5, sample_every_s=0.01, steady_after_s=0.1,
+                checkpoint_every_s=0.05)
+drum = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.01)
+simulate_drum(drum, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, sim, sys.argv[1])
+"""
+
+
+def run(folder: Path) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-c", RUN, str(folder)], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def test_a_killed_run_resumes_from_its_checkpoint_and_ends_with_identical_tables(tmp_path):
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    assert run(whole).wait(timeout=300) == 0
+    proc = run(killed)
+    deadline = time.time() + 300
+    while not (killed / "checkpoint.pkl").exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    time.sleep(0.5)  # let it run on past the first checkpoint
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert (killed / "checkpoint.pkl").exists() and not (killed / "dem_summary.json").exists()
+    resumed = run(killed)
+    _, err = resumed.communicate(timeout=300)
+    assert resumed.returncode == 0, err
+    assert "resumed from" in err
+    assert not (killed / "checkpoint.pkl").exists()  # a finished run leaves none behind
+    assert json.loads((killed / "dem_summary.json").read_text()) == json.loads((whole / "dem_summary.json").read_text())
+    for table in ("loads", "energy", "collisions"):
+        pd.testing.assert_frame_equal(pd.read_parquet(killed / f"{table}.parquet"),
+                                      pd.read_parquet(whole / f"{table}.parquet"), check_exact=True)
