@@ -5,6 +5,7 @@ import os
 
 import numpy as np
 
+from ballmill.config import DrumConfig, InteractionConfig, MaterialConfig, SimConfig
 from ballmill.dem import Body, Engine, EngineOptions, Interaction, Material, Plane, Recorder, SystemSpec, init_taichi
 
 RIGID = Material("rigid", 1.0, 1e25, 0.3)  # a wall that does not deform: E* = E_ball / (1 - v^2)
@@ -37,3 +38,14 @@ def run(spec, dt, duration, sample_every=None, trajectory_every=0, **options):
     engine = Engine(spec, EngineOptions(dt_s=dt, **options))
     results = engine.run(duration, sample_every or duration, Recorder(engine, trajectory_every))
     return engine, results
+
+
+MATERIALS = {"steel": MaterialConfig()}
+PAIRS = {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}
+DRUM_SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.3, duration_s=1.5, sample_every_s=0.01, steady_after_s=0.2)
+
+
+def small_drum(geometry="analytic"):
+    """A 0.3 m drum with 304 balls of 20 mm turning at 70 % of critical, as an analytic or STL wall."""
+    return DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.01, geometry=geometry,
+                      stl_segments=64)

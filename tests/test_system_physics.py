@@ -5,9 +5,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from helpers import run
+from helpers import DRUM_SIM as SIM
+from helpers import MATERIALS, PAIRS, run, small_drum
 
-from ballmill.config import DrumConfig, InteractionConfig, MaterialConfig, SimConfig
+from ballmill.config import SimConfig
 from ballmill.dem import Body, Interaction, Material, Plane, SystemSpec
 from ballmill.dem.materials import effective_youngs_modulus
 from ballmill.drum import simulate_drum
@@ -67,19 +68,9 @@ def test_cell_list_and_all_pairs_search_give_the_same_trajectories():
     assert np.abs(x_grid - pairs.x.to_numpy()).max() < 1e-12
 
 
-MATERIALS = {"steel": MaterialConfig()}
-PAIRS = {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}
-SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.3, duration_s=1.5, sample_every_s=0.01, steady_after_s=0.2)
-
-
-def small_drum(geometry):
-    return DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.01, geometry=geometry,
-                      stl_segments=64)
-
-
 @pytest.fixture(scope="module")
-def analytic_drum(tmp_path_factory):
-    return simulate_drum(small_drum("analytic"), MATERIALS, PAIRS, SIM, tmp_path_factory.mktemp("analytic"))
+def analytic_drum(analytic_drum_run):
+    return analytic_drum_run[0]
 
 
 def test_drum_torque_opposes_rotation_and_power_is_torque_times_speed(analytic_drum):

@@ -28,6 +28,7 @@ from .dem import (
     SystemSpec,
     init_taichi,
 )
+from .impacts import impact_statistics
 from .scaleup import critical_speed_rpm
 
 log = logging.getLogger(__name__)
@@ -182,8 +183,8 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
         "torque_axis_nm": float(loads.torque_axis_nm.mean()),
         "torque_axis_with_rolling_nm": float((loads.torque_axis_nm + loads.torque_rolling_axis_nm).mean()),
         "power_w": power, "power_se_w": power_se, "power_with_rolling_w": power_roll,
-        "collisions_per_s": float(len(results.collisions) / max(engine.time_s, 1e-12)),
         "simulated_s": engine.time_s,
+        **impact_statistics(results.collisions, after, engine.time_s, float(engine.p.mass_np.sum())),
     }
     summary_path.write_text(json.dumps(summary, indent=2))
     if checkpoint:
