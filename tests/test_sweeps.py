@@ -45,6 +45,10 @@ def test_sweep_report_matches_golden_table(sweeps, name, key, n_jobs):
     for ext in ("png", "svg", "csv", "md", "provenance.json"):
         assert (sweeps / "report" / f"{name}.{ext}").stat().st_size > 0
     assert "census.gov" in (sweeps / "report" / f"{name}.provenance.json").read_text()
+    spectra = pd.read_parquet(sweeps / "report" / f"{name}_impact_spectra.parquet")
+    assert spectra.case.nunique() == n_jobs and (spectra["count"] >= 0).all()
+    assert (sweeps / "report" / f"{name}_impact_spectra.png").stat().st_size > 0
+    assert "## Impacts" in (sweeps / "report" / f"{name}.md").read_text()
     ours = table.sort_values(key).reset_index(drop=True)[[key, *EXACT, *DEM]]
     golden_path = GOLDEN / f"{name}.csv"
     if os.environ.get("BALLMILL_UPDATE_GOLDEN"):

@@ -183,7 +183,7 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
         "torque_axis_nm": float(loads.torque_axis_nm.mean()),
         "torque_axis_with_rolling_nm": float((loads.torque_axis_nm + loads.torque_rolling_axis_nm).mean()),
         "power_w": power, "power_se_w": power_se, "power_with_rolling_w": power_roll,
-        "simulated_s": engine.time_s,
+        "simulated_s": engine.time_s, "averaging_from_s": after,
         **impact_statistics(results.collisions, after, engine.time_s, float(engine.p.mass_np.sum())),
     }
     summary_path.write_text(json.dumps(summary, indent=2))

@@ -100,3 +100,25 @@ def plot_lab_validation(simulated: pd.DataFrame, observed: pd.DataFrame | None =
     ax.legend(fontsize=8)
     ax.set_title("MM400: mean ball speed")
     return fig
+
+
+def plot_impact_spectra(spectra: pd.DataFrame):
+    """Cumulative distribution of normal impact energy, one panel per pair kind, one curve per
+    case; `spectra` is energy_spectrum's table with a `case` column."""
+    kinds = [("ball_ball", "ball-ball"), ("ball_wall", "ball-wall")]
+    fig, axes = plt.subplots(1, 2, sharey=True, sharex=True, figsize=(10, 4))
+    hit = spectra[spectra["count"] > 0]
+    for ax, (prefix, title) in zip(axes, kinds):
+        for case, g in spectra[spectra.pair_type.str.startswith(prefix)].groupby("case", sort=False):
+            g = g.groupby("energy_hi_j", as_index=False)["count"].sum()  # walls of all bodies together
+            ax.plot(g.energy_hi_j, np.cumsum(g["count"]) / max(g["count"].sum(), 1), lw=1.2, label=str(case))
+        ax.set_xscale("log")
+        if len(hit):
+            ax.set_xlim(hit.energy_lo_j.min(), hit.energy_hi_j.max())
+        ax.set_xlabel("normal impact energy (J)")
+        ax.set_title(title)
+        ax.grid(True, which="major", lw=0.3)
+    axes[0].set_ylabel("fraction of collisions below")
+    axes[1].legend(fontsize=7, ncol=2)
+    fig.suptitle("Impact-energy spectra (collisions in the averaging window)")
+    return fig

@@ -17,7 +17,8 @@ import pyarrow.parquet as pq
 
 from .config import MM400_GEOMETRY
 from .data import DATA_DIR, table
-from .plots import plot_fig3b, plot_fig4, plot_lab_validation, save_figure
+from .impacts import energy_spectrum
+from .plots import plot_fig3b, plot_fig4, plot_impact_spectra, plot_lab_validation, save_figure
 
 FIGURES = {"fig3b": plot_fig3b, "fig4": plot_fig4}
 SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv"]
@@ -93,6 +94,36 @@ def paper_comparison(name: str, ok: pd.DataFrame) -> list[str]:
 COLUMNS = ["bpr", "region", "shape_rule", "pet_feed_kg_per_h", "naoh_feed_kg_per_h", "diameter_m", "length_m",
            "ball_count", "fraction_of_critical", "dem_dt_s", "dem_power_w", "dem_power_se_w", "bond_rowland_power_w",
            "electricity_usd_per_yr", "electricity_usd_per_t_pet", "purchase_cost_usd", "purchase_cost_usd_per_kg_per_h", "yield_percent"]
+IMPACT_COLUMNS = ["dem_collisions_per_s", "dem_ball_ball_impact_energy_mean_j", "dem_ball_ball_impact_energy_p90_j",
+                  "dem_ball_wall_drum_impact_energy_mean_j", "dem_ball_wall_drum_impact_energy_p90_j",
+                  "dem_specific_dissipated_power_w_per_kg"]
+
+
+def case_label(rec) -> str:
+    if isinstance(rec.get("region"), str):
+        return rec["region"]
+    if pd.notna(rec.get("bpr")):
+        return f"BPR {rec['bpr']:g}"
+    return Path(rec["job_dir"]).name
+
+
+def impact_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
+    """The spectra figure (one curve per case) and the impact statistics of each case."""
+    spectra = []
+    for rec in ok.to_dict("records"):
+        path = Path(str(rec.get("dem_dir", ""))) / "collisions.parquet"
+        if path.exists():
+            after = rec.get("dem_averaging_from_s", 0.0)
+            spectra.append(energy_spectrum(pd.read_parquet(path), after).assign(case=case_label(rec)))
+    if not spectra:
+        return []
+    table = pd.concat(spectra, ignore_index=True)
+    write_table(table, out_dir / f"{name}_impact_spectra")
+    save_figure(plot_impact_spectra(table), out_dir / f"{name}_impact_spectra")
+    cols = [c for c in IMPACT_COLUMNS if c in ok]
+    return ["## Impacts", "", f"![impact spectra]({name}_impact_spectra.png)", "",
+            ok.assign(case=[case_label(r) for r in ok.to_dict("records")])[["case", *cols]].to_markdown(
+                index=False, floatfmt=".4g"), ""]
 
 
 def lab_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
@@ -135,6 +166,7 @@ def report(sweep_dir: Path, out_dir: Path) -> Path:
         lines += [ok[cols].to_markdown(index=False, floatfmt=".4g"), ""]
         if "margin_usd_per_t_tpa" in ok:
             lines += ["## Against the paper", ""] + paper_comparison(name, ok) + [""]
+        lines += impact_lines(name, ok, out_dir)
     for rec in failed.itertuples():
         lines.append(f"- FAILED `{rec.job_dir}`: {rec.error}")
     path = out_dir / f"{name}.md"
