@@ -33,10 +33,10 @@ def floor_system(material, radius, velocities, restitutions=(1.0,), friction=0.0
     )
 
 
-def run(spec, dt, duration, sample_every=None, trajectory_every=0, **options):
+def run(spec, dt, duration, sample_every=None, trajectory_every=0, phases=(), **options):
     init_taichi(os.environ.get("BALLMILL_TEST_ARCH", "cpu"), os.environ.get("BALLMILL_TEST_PRECISION", "f64"))
     engine = Engine(spec, EngineOptions(dt_s=dt, **options))
-    results = engine.run(duration, sample_every or duration, Recorder(engine, trajectory_every))
+    results = engine.run(duration, sample_every or duration, Recorder(engine, trajectory_every), phases=phases)
     return engine, results
 
 

@@ -169,7 +169,8 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
     key = dem_key(drum, materials, interactions, sim)
     checkpoint = Checkpoint(out_dir / "checkpoint.pkl", sim.checkpoint_every_s, key) if sim.checkpoint_every_s else None
     results = engine.run(sim.settle_s + sim.duration_s, sim.sample_every_s,
-                         Recorder(engine, sim.trajectory_every), label="drum", checkpoint=checkpoint)
+                         Recorder(engine, sim.trajectory_every), label="drum", checkpoint=checkpoint,
+                         phases=((0.0, "settle"), (sim.settle_s, "rotate"), (sim.settle_s + sim.steady_after_s, "average")))
     results.write(out_dir)
     after = sim.settle_s + sim.steady_after_s
     power, power_se = results.mean_power_w("drum", after)

@@ -16,12 +16,14 @@ neither depends on the number of threads.
 """
 
 import logging
+import sys
 import time
 from dataclasses import dataclass
 
 import numpy as np
 import taichi as ti
 from taichi.lang.field import Field
+from tqdm import tqdm
 
 from .checkpoint import Checkpoint
 from .contact import PairTables
@@ -206,14 +208,19 @@ class Engine:
         return spent
 
     def run(self, duration_s: float, sample_every_s: float, recorder: Recorder | None = None,
-            label: str = "run", checkpoint: Checkpoint | None = None) -> Results:
+            label: str = "run", checkpoint: Checkpoint | None = None, phases: tuple = ()) -> Results:
         """Advance by duration_s, sampling every sample_every_s (rounded to whole steps); with a
-        checkpoint, continue an interrupted run from it and save one every checkpoint.every_s."""
+        checkpoint, continue an interrupted run from it and save one every checkpoint.every_s.
+
+        Progress: a bar (simulated time, phase, particle-steps per second, ETA) on a terminal,
+        else a log line every `progress_every_s`; `phases` are (start time (s), name) pairs."""
         recorder = recorder or Recorder(self)
         per_sample = max(1, round(sample_every_s / self.dt))
         n_samples = max(1, round(duration_s / (per_sample * self.dt)))
         first = checkpoint.resume(self, recorder, label) if checkpoint else 0
         saved_at = self.time_s
+        bar = tqdm(total=n_samples, initial=first, desc=label, unit="sample",
+                   disable=not sys.stderr.isatty())
         t_wall, last_log = time.perf_counter(), time.perf_counter()
         for s in range(first, n_samples):
             self.advance(per_sample)
@@ -223,11 +230,15 @@ class Engine:
                 checkpoint.save(self, recorder, s + 1, label)
                 saved_at = self.time_s
             now = time.perf_counter()
-            if now - last_log > self.opt.progress_every_s or s == n_samples - 1:
-                rate = (s + 1 - first) * per_sample * self.n / (now - t_wall)
-                log.info("%s: t=%.4f s (%d/%d samples), %.3g particle-steps/s", label,
-                         self.time_s, s + 1, n_samples, rate)
+            rate = (s + 1 - first) * per_sample * self.n / (now - t_wall)
+            phase = next((name for start, name in reversed(phases) if self.time_s >= start), "")
+            bar.set_postfix_str(f"t={self.time_s:.3f} s {phase}, {rate:.3g} particle-steps/s", refresh=False)
+            bar.update(1)
+            if bar.disable and (now - last_log > self.opt.progress_every_s or s == n_samples - 1):
+                log.info("%s: t=%.4f s %s(%d/%d samples), %.3g particle-steps/s", label,
+                         self.time_s, f"{phase} " if phase else "", s + 1, n_samples, rate)
                 last_log = now
+        bar.close()
         return recorder.results()
 
     def _state_fields(self):
