@@ -53,6 +53,7 @@ class SimConfig:
     sample_every_s: float = rng(0.01, 0.0, None, lo_open=True)
     steady_after_s: float = rng(0.5, 0.0, None, doc="power is averaged over samples later than this after start (s)")
     trajectory_every: int = rng(0, 0, None, doc="record particle states every n samples (0: never)")
+    vtk_every: int = rng(0, 0, None, doc="write ParaView files (particles, walls) every n samples (0: never)")
     max_contacts_per_particle: int = rng(16, 1, None, doc="neighbour-list and wall-contact slots per particle")
     checkpoint_every_s: float | None = rng(1.0, 0.0, None, lo_open=True,
                                            doc="simulated time between checkpoints of a drum run (s); null: none")

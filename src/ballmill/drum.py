@@ -28,11 +28,13 @@ from .dem import (
     SystemSpec,
     init_taichi,
 )
+from .dem.vtk import VtkWriter
 from .impacts import impact_statistics
 from .scaleup import critical_speed_rpm
 
 log = logging.getLogger(__name__)
 AXIS = (0.0, 1.0, 0.0)  # drum axis; gravity is -z
+BED_SNAPSHOTS = 4  # particle states recorded at this many instants of the averaging window (bed picture)
 
 
 def drum_speed_rpm(drum: DrumConfig) -> float:
@@ -168,11 +170,13 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
              "serial" if engine.serial else "parallel")
     key = dem_key(drum, materials, interactions, sim)
     checkpoint = Checkpoint(out_dir / "checkpoint.pkl", sim.checkpoint_every_s, key) if sim.checkpoint_every_s else None
-    results = engine.run(sim.settle_s + sim.duration_s, sim.sample_every_s,
-                         Recorder(engine, sim.trajectory_every), label="drum", checkpoint=checkpoint,
-                         phases=((0.0, "settle"), (sim.settle_s, "rotate"), (sim.settle_s + sim.steady_after_s, "average")))
-    results.write(out_dir)
     after = sim.settle_s + sim.steady_after_s
+    end = sim.settle_s + sim.duration_s
+    recorder = Recorder(engine, sim.trajectory_every, snapshot_times_s=np.linspace(after, end, BED_SNAPSHOTS + 1)[1:],
+                        writers=(VtkWriter(out_dir, sim.vtk_every),) if sim.vtk_every else ())
+    results = engine.run(end, sim.sample_every_s, recorder, label="drum", checkpoint=checkpoint,
+                         phases=((0.0, "settle"), (sim.settle_s, "rotate"), (after, "average")))
+    results.write(out_dir)
     power, power_se = results.mean_power_w("drum", after)
     power_roll, _ = results.mean_power_w("drum", after, rolling=True)
     loads = results.loads[results.loads.t_s > after]

@@ -25,6 +25,7 @@ boundary f f f
 newton off
 communicate single vel yes
 units si
+hard_particles yes
 read_data balls.data
 neighbor {skin_m} bin
 neigh_modify delay 0
@@ -73,7 +74,10 @@ def run_liggghts(folder: Path, ranks: int) -> float:
     cmd = ["liggghts", "-in", "in.drum", "-log", "none"]
     if ranks > 1:
         cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(ranks), *cmd]
-    out = subprocess.run(cmd, cwd=folder, capture_output=True, text=True, check=True).stdout
+    proc = subprocess.run(cmd, cwd=folder, capture_output=True, text=True, check=False)
+    out = proc.stdout
+    if proc.returncode:
+        raise RuntimeError(f"LIGGGHTS failed ({' '.join(cmd)}):\n{(out + proc.stderr)[-2000:]}")
     loops = re.findall(r"Loop time of ([\d.eE+-]+) on \d+ procs for (\d+) steps with (\d+) atoms", out)
     if len(loops) < 2:
         raise RuntimeError(f"LIGGGHTS printed no timing for the rotation run:\n{out[-2000:]}")

@@ -122,3 +122,31 @@ def plot_impact_spectra(spectra: pd.DataFrame):
     axes[1].legend(fontsize=7, ncol=2)
     fig.suptitle("Impact-energy spectra (collisions in the averaging window)")
     return fig
+
+
+def plot_bed(trajectories: pd.DataFrame, radius_m: float, drum_radius_m: float):
+    """Side view of the drum (along its axis) at each recorded instant, balls coloured by speed,
+    so cascading and cataracting can be told apart at a glance."""
+    from matplotlib.collections import PatchCollection
+    from matplotlib.patches import Circle
+
+    times = sorted(trajectories.t_s.unique())
+    fig, axes = plt.subplots(1, len(times), figsize=(3.2 * len(times), 3.4), squeeze=False)
+    speed = np.sqrt(trajectories.vx_m_per_s**2 + trajectories.vy_m_per_s**2 + trajectories.vz_m_per_s**2)
+    vmax = float(speed.quantile(0.99)) or 1.0
+    for ax, t in zip(axes[0], times):
+        g = trajectories[trajectories.t_s == t].sort_values("y_m")
+        balls = PatchCollection([Circle((x, z), radius_m) for x, z in zip(g.x_m, g.z_m)], cmap="viridis",
+                                edgecolor="none")
+        balls.set_array(np.sqrt(g.vx_m_per_s**2 + g.vy_m_per_s**2 + g.vz_m_per_s**2).to_numpy())
+        balls.set_clim(0.0, vmax)
+        ax.add_collection(balls)
+        ax.add_patch(Circle((0, 0), drum_radius_m, fill=False, lw=1.0, color="k"))
+        ax.set_xlim(-1.05 * drum_radius_m, 1.05 * drum_radius_m)
+        ax.set_ylim(-1.05 * drum_radius_m, 1.05 * drum_radius_m)
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+        ax.set_title(f"t = {t:.2f} s", fontsize=9)
+    fig.colorbar(balls, ax=axes[0].tolist(), label="ball speed (m/s)", shrink=0.8)
+    fig.suptitle("Charge seen along the drum axis")
+    return fig

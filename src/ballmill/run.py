@@ -41,7 +41,7 @@ from .config import (
 from .drum import dem_key, simulate_drum
 from .economics import bond_rowland_power_w, evaluate, yield_percent
 from .lab import conditions, simulate_mm400, summarise, wall_interaction
-from .plots import plot_drum_loads, save_figure
+from .plots import plot_bed, plot_drum_loads, save_figure
 from .scaleup import design_mill
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -93,6 +93,9 @@ def run(cfg: DictConfig, out_dir: Path) -> dict:
     loads = pd.read_parquet(dem_dir / "loads.parquet")
     loads.to_csv(out_dir / "loads.csv", index=False)
     save_figure(plot_drum_loads(loads, steady_after_s=sim.settle_s + sim.steady_after_s), out_dir / "drum_loads")
+    bed = pd.read_parquet(dem_dir / "trajectories.parquet")
+    if len(bed):
+        save_figure(plot_bed(bed, drum.ball_radius_m, drum.inner_diameter_m / 2), out_dir / "bed")
     if kind == "design":
         record.update(evaluate(dem["power_w"], scale.bpr, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, econ))
         record["bond_rowland_power_w"] = bond_rowland_power_w(

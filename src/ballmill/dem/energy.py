@@ -30,13 +30,15 @@ class EnergyBook:
 
     @ti.func
     def add(self, i, work, normal, tangential, rolling):
-        """Book powers (W) over one time step."""
-        self.cumulative[i] += self.p.dt[None] * ti.Vector([work, normal, tangential, rolling])
+        """Book powers (W) over one time step (only i's own thread writes i: no atomics needed)."""
+        self.cumulative[i] = self.cumulative[i] + self.p.dt[None] * ti.Vector([work, normal, tangential, rolling])
 
     @ti.func
     def hold(self, i, hertz, spring, elastic: ti.template(), springs: ti.template()):
         """Energy now in i's contacts of one kind (J); the springs' change is not dissipated."""
-        self.cumulative[i][2] -= spring - springs[i]
+        c = self.cumulative[i]
+        c[2] -= spring - springs[i]
+        self.cumulative[i] = c
         springs[i] = spring
         elastic[i] = hertz + spring
 

@@ -263,10 +263,16 @@ class Engine:
     def time_s(self) -> float:
         return self.step_index * self.dt
 
+    def contact_counts(self) -> np.ndarray:
+        """Open contacts of each particle now (with particles and walls)."""
+        start, partner = self.nl.start.to_numpy(), self.nl.nb_j.to_numpy()
+        open_ = (np.arange(self.nl.k_max)[None, :] < self.nl.nb_n.to_numpy()[:, None]) & (start >= 0)
+        counts = open_.sum(axis=1)
+        np.add.at(counts, partner[open_], 1)
+        return counts + self.walls.c_n.to_numpy()[self.step_index % 2]
+
     def contacts_per_particle(self) -> float:
-        """Contacts (sphere-sphere counted from both sides, and sphere-wall) per particle now."""
-        walls = self.walls.c_n.to_numpy()[self.step_index % 2].sum()
-        return float((2 * self.nl.contact_pairs() + walls) / self.n)
+        return float(self.contact_counts().mean())
 
     def rebuilds(self) -> int:
         """Neighbour-list builds so far (all replicas)."""

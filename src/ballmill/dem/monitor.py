@@ -30,7 +30,8 @@ class Monitor:
 
     @ti.func
     def overlap(self, fraction):
-        ti.atomic_max(self.max_overlap[None], fraction)
+        if fraction > self.max_overlap[None]:  # a read first: the shared value is rarely raised
+            ti.atomic_max(self.max_overlap[None], fraction)
 
     @ti.kernel
     def _export(self, m: ti.i32, ints: ti.types.ndarray(), vals: ti.types.ndarray()):

@@ -50,10 +50,13 @@ class Results:
 
 
 class Recorder:
-    """Collects samples from an Engine; trajectories every `trajectory_every` samples (0: never)."""
+    """Collects samples from an Engine; trajectories every `trajectory_every` samples (0: never)
+    and at the samples nearest to `snapshot_times_s`; `writers` get every sample too (e.g. VTK)."""
 
-    def __init__(self, engine, trajectory_every: int = 0):
+    def __init__(self, engine, trajectory_every: int = 0, snapshot_times_s=(), writers=()):
         self.every = trajectory_every
+        self.snapshots = sorted(snapshot_times_s)
+        self.writers = writers
         self.body_names = [b.name for b in engine.spec.bodies]
         self.n_samples = 0
         self.columns = {name: defaultdict(list) for name in TABLES}
@@ -80,7 +83,10 @@ class Recorder:
             )
         self._add("energy", t_s=t, replica=np.arange(engine.n_rep), **engine.energies())
         self._collisions(engine)
-        if self.every and self.n_samples % self.every == 0:
+        snapshot = bool(self.snapshots) and t >= self.snapshots[0] - 0.5 * engine.dt
+        if snapshot:
+            self.snapshots.pop(0)
+        if snapshot or (self.every and self.n_samples % self.every == 0):
             x, v, w = engine.x.to_numpy(), engine.v.to_numpy(), engine.w.to_numpy()
             self._add(
                 "trajectories", t_s=t, replica=reps, particle=np.arange(engine.n),
@@ -88,6 +94,8 @@ class Recorder:
                 vx_m_per_s=v[:, 0], vy_m_per_s=v[:, 1], vz_m_per_s=v[:, 2],
                 wx_rad_per_s=w[:, 0], wy_rad_per_s=w[:, 1], wz_rad_per_s=w[:, 2],
             )
+        for writer in self.writers:
+            writer.sample(engine)
         self.n_samples += 1
 
     def _collisions(self, engine) -> None:
@@ -118,11 +126,15 @@ class Recorder:
         )
 
     def state(self) -> dict:
-        return {"n_samples": self.n_samples, "columns": {k: dict(v) for k, v in self.columns.items()}}
+        return {"n_samples": self.n_samples, "snapshots": list(self.snapshots),
+                "columns": {k: dict(v) for k, v in self.columns.items()},
+                "writers": [vars(w).copy() for w in self.writers]}
 
     def restore(self, state: dict) -> None:
-        self.n_samples = state["n_samples"]
+        self.n_samples, self.snapshots = state["n_samples"], state["snapshots"]
         self.columns = {k: defaultdict(list, v) for k, v in state["columns"].items()}
+        for writer, saved in zip(self.writers, state["writers"]):
+            vars(writer).update(saved)
 
     def results(self) -> Results:
         frames = {

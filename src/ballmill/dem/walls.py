@@ -170,12 +170,13 @@ class Walls:
         fn, ft, xi, e = self.tables.law(r, mi, mat, delta, n, v_rel, xi, p.mass[i], p.rad[i], p.dt[None])
         roll = rolling_torque(fn, self.tables.mu_r[r, mi, mat], p.rad[i], p.w[i] - w_wall)
         f_i = -fn * n + ft
-        self.acc_f[i, b] += -f_i
-        self.acc_tq[i, b] += mo.lever(r, b, c).cross(-f_i)
-        self.acc_tq_roll[i, b] += -roll
         power, power_roll = f_i.dot(v_wall), roll.dot(w_wall)
-        self.acc_pw[i, b] += power
-        self.acc_pw_roll[i, b] += power_roll
+        # accumulators of i, written by i's thread only: plain stores, not atomics
+        self.acc_f[i, b] = self.acc_f[i, b] - f_i
+        self.acc_tq[i, b] = self.acc_tq[i, b] + mo.lever(r, b, c).cross(-f_i)
+        self.acc_tq_roll[i, b] = self.acc_tq_roll[i, b] - roll
+        self.acc_pw[i, b] = self.acc_pw[i, b] + power
+        self.acc_pw_roll[i, b] = self.acc_pw_roll[i, b] + power_roll
         loss_r = -roll.dot(p.w[i] - w_wall)
         self.book.add(i, power + power_roll, e[0], e[1], loss_r)
         self.monitor.overlap(delta / p.rad[i])
