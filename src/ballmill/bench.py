@@ -6,7 +6,7 @@ rho 7900, e 0.5, mu 0.5, mu_r 0.01, dt 20 % of Rayleigh; settle, then rotate.
 Other sizes scale D and L by (N / 8600)^(1/3).  `bpr19` is the paper's mill at BPR 19 instead:
 D 1.743 m, L 2.614 m, 523 balls of 160 mm, 15 rpm, physical steel (G 77 GPa), dt 1.74e-5 s.
 Figures are printed as a table and written as JSON (`--json`); `--peer liggghts` runs the same
-drums in LIGGGHTS (1 and 2 MPI ranks) in the same session and adds the ratios.
+drums in LIGGGHTS (1 and 2 MPI ranks) right after ours and adds the ratios.
 
 `--lab`: the MM400 batch instead, a 10 x 10 grid of ball-wall restitution x friction, one
 17.6 mm ball per jar at 25 Hz, 2 s each, all replicas in one launch.

@@ -1,5 +1,5 @@
-"""The bench drum written for LIGGGHTS 3.8 (Debian package `liggghts`), run in the same session
-as our engine so that the speed ratio is measured, not remembered.
+"""The bench drum written for LIGGGHTS 3.8 (Debian package `liggghts`), run right after our
+engine on the same machine, so that the speed ratio is measured, not remembered.
 
 Same balls, positions, materials, contact model (Hertz, tangential history, EDEM type-A
 rolling friction as `cdt`), time step, settling time and rotation; the drum is the faceted
