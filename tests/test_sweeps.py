@@ -8,6 +8,7 @@ floating-point path can differ between CPUs, so it must match within 15 %.
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -57,6 +58,12 @@ def test_sweep_report_matches_golden_table(sweeps, name, key, n_jobs):
     assert ours[key].astype(str).tolist() == golden[key].astype(str).tolist()
     pd.testing.assert_frame_equal(ours[EXACT], golden[EXACT], rtol=1e-9, check_dtype=False)
     pd.testing.assert_frame_equal(ours[DEM], golden[DEM], rtol=0.15, check_dtype=False)
+
+
+def test_each_job_logs_how_much_of_its_sweep_is_done(sweeps):
+    logs = [p.read_text() for p in (sweeps / "fig4").glob("*/run.log")]
+    counts = sorted(int(m.group(1)) for text in logs for m in re.finditer(r"sweep: (\d+) of 9 jobs done", text))
+    assert len(counts) == 9 and counts[-1] == 9
 
 
 def test_rerunning_a_finished_sweep_recomputes_nothing(sweeps):

@@ -23,6 +23,8 @@ from pathlib import Path
 import hydra
 import pandas as pd
 from hydra.core.hydra_config import HydraConfig
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
 from . import __version__
@@ -151,3 +153,19 @@ def main(cfg: DictConfig) -> None:
     write_record(record, out_dir)
     if record["status"] != "ok":
         shutil.copy(out_dir / "record.json", out_dir / "FAILED.json")
+    log_sweep_progress()
+
+
+def log_sweep_progress() -> None:
+    """In a multirun: how many of the sweep's jobs hold a record (finished or failed) so far.
+    The total counts the sweep file's parameters; sweeps given only on the command line are
+    not visible to a job, so then the count alone is logged."""
+    hc = HydraConfig.get()
+    if hc.mode != RunMode.MULTIRUN:
+        return
+    done = len(list(Path(hc.sweep.dir).glob("*/record.json")))
+    total = 1
+    for override in OverridesParser.create().parse_overrides([f"{k}={v}" for k, v in hc.sweeper.params.items()]):
+        if override.is_sweep_override():
+            total *= len(list(override.sweep_string_iterator()))
+    log.info("sweep: %d of %s jobs done", done, total if hc.sweeper.params else "?")
