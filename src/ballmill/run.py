@@ -164,8 +164,9 @@ def log_sweep_progress() -> None:
     if hc.mode != RunMode.MULTIRUN:
         return
     done = len(list(Path(hc.sweep.dir).glob("*/record.json")))
+    params = hc.sweeper.get("params") or {}
     total = 1
-    for override in OverridesParser.create().parse_overrides([f"{k}={v}" for k, v in hc.sweeper.params.items()]):
+    for override in OverridesParser.create().parse_overrides([f"{k}={v}" for k, v in params.items()]):
         if override.is_sweep_override():
             total *= len(list(override.sweep_string_iterator()))
-    log.info("sweep: %d of %s jobs done", done, total if hc.sweeper.params else "?")
+    log.info("sweep: %d of %s jobs done", done, total if params else "?")
