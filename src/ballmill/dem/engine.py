@@ -265,10 +265,9 @@ class Engine:
 
     def contact_counts(self) -> np.ndarray:
         """Open contacts of each particle now (with particles and walls)."""
-        start, partner = self.nl.start.to_numpy(), self.nl.nb_j.to_numpy()
-        open_ = (np.arange(self.nl.k_max)[None, :] < self.nl.nb_n.to_numpy()[:, None]) & (start >= 0)
+        open_ = self.nl.open_slots()
         counts = open_.sum(axis=1)
-        np.add.at(counts, partner[open_], 1)
+        np.add.at(counts, self.nl.nb_j.to_numpy()[open_], 1)
         return counts + self.walls.c_n.to_numpy()[self.step_index % 2]
 
     def contacts_per_particle(self) -> float:

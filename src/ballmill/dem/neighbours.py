@@ -240,7 +240,11 @@ class NeighbourList:
             if (x_next - self.p.x[i]).norm_sqr() > half * half:
                 ti.atomic_max(self.monitor.fast[None], i + 1)
 
+    def open_slots(self) -> np.ndarray:
+        """(n, capacity) mask of the list slots whose pair is in contact now."""
+        used = np.arange(self.k_max)[None, :] < self.nb_n.to_numpy()[:, None]
+        return used & (self.start.to_numpy() >= 0)
+
     def contact_pairs(self) -> int:
         """Pairs in contact now."""
-        used = np.arange(self.k_max)[None, :] < self.nb_n.to_numpy()[:, None]
-        return int(((self.start.to_numpy() >= 0) & used).sum())
+        return int(self.open_slots().sum())
