@@ -44,8 +44,8 @@ def reproduce() -> None:
     sh(ballmill, "run", "+sweep=lab_validation", f"interactions.steel-pmma.restitution={best['wall_restitution']}",
        f"interactions.steel-pmma.static_friction={best['wall_friction']}", f"study.observations={cal}/observations.csv")
     sh(ballmill, "run", "+sweep=mm400_geometry")
-    sh(ballmill, "report", *(f"outputs/sweeps/{name}" for name in
-                             ("fig3b", "fig4", "shape_rule", "stiffness", "lab_validation", "mm400_geometry")))
+    names = ("fig3b", "fig4", "shape_rule", "stiffness", "lab_validation", "mm400_geometry")
+    sh(ballmill, "report", f"sweeps=[{','.join(f'outputs/sweeps/{name}' for name in names)}]")
 
 
 def test() -> None:

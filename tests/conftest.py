@@ -14,4 +14,4 @@ from ballmill.drum import simulate_drum
 def analytic_drum_run(tmp_path_factory):
     """(summary, folder) of the small analytic drum at DRUM_SIM, shared by the tests that read it."""
     folder = tmp_path_factory.mktemp("analytic_drum")
-    return simulate_drum(small_drum("analytic"), MATERIALS, PAIRS, DRUM_SIM, folder), folder
+    return simulate_drum(small_drum("analytic"), MATERIALS, PAIRS, DRUM_SIM, folder).summary, folder

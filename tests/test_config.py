@@ -3,22 +3,17 @@
 from pathlib import Path
 
 import pytest
-from hydra import compose, initialize_config_dir
-from hydra.core.global_hydra import GlobalHydra
 
-from ballmill.config import ConfigError, DrumConfig, SimConfig, register, to_object
-from ballmill.run import ROOT, run
-
-register()
+from ballmill.config import CONF_DIR, ConfigError, DrumConfig, SimConfig, to_object
+from ballmill.run import run
+from ballmill.scenario import compose
 
 
 def composed(overrides=()):
-    GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=str(ROOT / "conf"), version_base="1.3"):
-        return compose("config", overrides=[*overrides, f"hydra.searchpath=[file://{ROOT}]"], return_hydra_config=True)
+    return compose("config", list(overrides), hydra=True)
 
 
-@pytest.mark.parametrize("sweep", sorted(p.stem for p in (ROOT / "sweep").glob("*.yaml")))
+@pytest.mark.parametrize("sweep", sorted(p.stem for p in (CONF_DIR / "sweep").glob("*.yaml")))
 def test_every_sweep_composes(sweep):
     cfg = composed([f"+sweep={sweep}"])
     assert cfg.hydra.mode.name == "MULTIRUN"

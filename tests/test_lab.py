@@ -26,7 +26,7 @@ def test_jar_is_25_ml_and_swings_by_the_configured_stroke():
 
 def test_video_collisions_count_runs_of_jumps_per_ball():
     jumps = [0.1, 2.0, 1.5, 0.2, 0.1, 3.0, 0.1, np.nan]  # two collisions, the first over two frames
-    speeds = pd.DataFrame({"replica": 0, "particle": np.repeat([0, 1], len(jumps)), "jump": jumps * 2})
+    speeds = pd.DataFrame({"replica": 0, "particle": np.repeat([0, 1], len(jumps)), "frame_jump_m_per_s": jumps * 2})
     assert video_collisions(speeds, 1.0) == 4
     assert video_collisions(speeds, 2.5) == 2
 
@@ -46,7 +46,7 @@ def test_lab_sweep_runs_and_reports(tmp_path):
         # a frame-to-frame chord in the camera plane is never longer than the 3-D path
         assert (s.mean_true_speed_m_per_s >= s.mean_speed_m_per_s).all(), s
         assert (s.ball_wall_collisions_per_s > 30).all(), s  # the jar hits the ball at least once a cycle
-    proc = subprocess.run([*run, "report", str(tmp_path / "sweep"), "--out", str(tmp_path / "report")],
+    proc = subprocess.run([*run, "report", f"sweeps=[{tmp_path / 'sweep'}]", f"out={tmp_path / 'report'}"],
                           cwd=tmp_path, capture_output=True, text=True, timeout=300, check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
     for ext in ("png", "svg", "md"):

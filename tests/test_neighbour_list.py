@@ -6,7 +6,8 @@ import pytest
 
 from ballmill.config import DrumConfig, InteractionConfig, MaterialConfig, SimConfig
 from ballmill.dem import Engine, EngineOptions, init_taichi
-from ballmill.drum import build_materials, drum_system, time_step_s
+from ballmill.drum import drum_spec
+from ballmill.scenario import time_step_s
 
 DRUM = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.01)  # 304 balls
 SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.15)  # dt 2.2e-5 s; the drum turns from 0.15 s
@@ -15,9 +16,7 @@ SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.15)  # dt 2.2e-5 s; the dru
 def simulate(threads=2, launches=1, **options):
     """10,000 steps (0.22 s) of a settling, then turning, charge; what the test needs, as numpy
     (each call restarts Taichi, so no engine outlives it)."""
-    mats, pairs = build_materials({"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)},
-                                  SIM.shear_modulus_scale)
-    spec = drum_system(DRUM, mats, pairs, SIM)
+    spec = drum_spec(DRUM, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, SIM)
     init_taichi("cpu", "f64", threads)
     engine = Engine(spec, EngineOptions(dt_s=time_step_s(spec, SIM), **options))
     for _ in range(launches):

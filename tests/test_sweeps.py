@@ -39,7 +39,7 @@ def sweeps(tmp_path_factory):
 
 @pytest.mark.parametrize("name, key, n_jobs", [("fig3b", "bpr", 7), ("fig4", "region", 9)])
 def test_sweep_report_matches_golden_table(sweeps, name, key, n_jobs):
-    proc = ballmill("report", str(sweeps / name), "--out", str(sweeps / "report"), cwd=sweeps)
+    proc = ballmill("report", f"sweeps=[{sweeps / name}]", f"out={sweeps / 'report'}", cwd=sweeps)
     assert proc.returncode == 0, proc.stderr[-3000:]
     table = pd.read_parquet(sweeps / "report" / f"{name}.parquet")
     assert len(table) == n_jobs and (table.status == "ok").all()
@@ -85,12 +85,26 @@ def test_a_changed_config_reruns_its_jobs_and_reuses_cached_dem(sweeps):
     assert log.count("reusing the DEM result") == 7  # threads do not change a DEM result
 
 
-def test_failed_job_is_recorded_and_the_sweep_carries_on(tmp_path):
-    proc = ballmill("run", "-m", "scaleup.bpr=19,30", "sim=ci", "sim.duration_s=0.05", "sim.settle_s=0.05",
-                    f"hydra.sweep.dir={tmp_path}", f"cache_dir={tmp_path / 'cache'}", cwd=tmp_path)
-    records = {p.parent.name.split(",")[0]: json.loads(p.read_text()) for p in tmp_path.glob("*/record.json")}
-    assert records["scaleup.bpr=19"]["status"] == "ok"
-    assert records["scaleup.bpr=30"]["status"] == "failed"
-    assert "outside the yield fit's range" in records["scaleup.bpr=30"]["error"]
-    assert (tmp_path / "scaleup.bpr=30,sim.duration_s=0.05,sim.settle_s=0.05" / "FAILED.json").exists()
-    assert proc.returncode == 0
+def test_failed_job_is_recorded_the_sweep_carries_on_and_exits_non_zero(tmp_path):
+    """A job that fails while running (here the overlap guard rail trips) is recorded, the others
+    finish, and the command exits 1 naming the failed job's folder."""
+    proc = ballmill("run", "-m", "sim.max_overlap_fraction=0.05,1e-9", "sim=ci", "sim.duration_s=0.05",
+                    "sim.settle_s=0.05", "sim.steady_after_s=0.0", f"hydra.sweep.dir={tmp_path}",
+                    f"cache_dir={tmp_path / 'cache'}", cwd=tmp_path)
+    records = {p.parent.name.split(",")[1]: json.loads(p.read_text()) for p in tmp_path.glob("*/record.json")}
+    assert records["sim.max_overlap_fraction=0.05"]["status"] == "ok"
+    assert records["sim.max_overlap_fraction=1e-09"]["status"] == "failed"
+    assert "overlap" in records["sim.max_overlap_fraction=1e-09"]["error"]
+    failed = next(tmp_path.glob("*sim.max_overlap_fraction=1e-09*"))
+    assert (failed / "FAILED.json").exists()
+    assert proc.returncode == 1
+    assert f"error: 1 job(s) failed (see their FAILED.json): {failed}" in proc.stderr
+
+
+def test_a_bad_value_in_any_job_refuses_the_whole_sweep_before_it_starts(tmp_path):
+    proc = ballmill("run", "-m", "scaleup.bpr=19,30", "sim=ci", f"hydra.sweep.dir={tmp_path}", cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines()[-1] == (
+        "error: scaleup.bpr=30.0 is outside the yield fit's range [10.0, 23.0]; "
+        "set economics.allow_yield_extrapolation=true to extrapolate (job scaleup.bpr=30)")
+    assert not list(tmp_path.iterdir())

@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from ballmill.cli import compose
 from ballmill.lab import conditions, simulate_mm400
+from ballmill.scenario import compose, load
 from ballmill.vision.frames import read_frames, write_frames
 from ballmill.vision.render import Camera, render_lab_videos
 from ballmill.vision.track import TrackerSettings, track
@@ -20,12 +20,12 @@ FPS = 2134.0
 
 def film(folder, balls: int, frames: int, backlit: bool = True, mm_per_px: float = 0.2, seed: int = 3):
     """Simulate one 25 Hz MM400 jar with 17.6 mm balls and render `frames` frames after settling."""
-    lab, sim, materials, interactions, _ = compose([
-        f"lab.balls_per_jar={balls}", "lab.frequencies_hz=[25.0]", "lab.ball_diameters_m=[0.0176]",
-        f"lab.duration_s={0.2 + (frames + 1.5) / FPS}", f"sim.seed={seed}"])
-    conds = conditions(lab, [0.6], [0.3])
-    traj, _ = simulate_mm400(lab, conds, materials, interactions, sim)
-    render_lab_videos(folder, lab, conds, traj, Camera(mm_per_px=mm_per_px, backlit=backlit, seed=seed))
+    s = load(compose("config", [
+        "sim=lab", f"lab.balls_per_jar={balls}", "lab.frequencies_hz=[25.0]", "lab.ball_diameters_m=[0.0176]",
+        f"lab.duration_s={0.2 + (frames + 1.5) / FPS}", f"sim.seed={seed}"]))
+    conds = conditions(s.lab, [0.6], [0.3])
+    traj, _ = simulate_mm400(s.lab, conds, s.materials, s.interactions, s.sim)
+    render_lab_videos(folder, s.lab, conds, traj, Camera(mm_per_px=mm_per_px, backlit=backlit, seed=seed))
     return folder / "mm400_000.avi", pd.read_csv(folder / "mm400_000.avi.truth.csv")
 
 
@@ -37,16 +37,16 @@ def compare(tracked: pd.DataFrame, truth: pd.DataFrame, mm_per_px: float) -> dic
     ids = {}
     for row in first.itertuples():  # identity: the truth particle nearest in the first frame
         t0 = truth[truth.t_s == times[0]]
-        ids[row.ball] = int(t0.particle.iloc[np.argmin(np.hypot(t0.u_px - row.u_px, t0.v_px - row.v_px))])
+        ids[row.particle] = int(t0.particle.iloc[np.argmin(np.hypot(t0.u_px - row.u_px, t0.v_px - row.v_px))])
     out = {}
     for ball, particle in ids.items():
-        mine = tracked[tracked.ball == ball].merge(truth[truth.particle == particle], on="t_s", suffixes=("", "_true"))
+        mine = tracked[tracked.particle == ball].merge(truth[truth.particle == particle], on="t_s", suffixes=("", "_true"))
         err = np.hypot(mine.u_px - mine.u_px_true, mine.v_px - mine.v_px_true)
-        true_speed = np.hypot(np.diff(mine.u_px_true), np.diff(mine.v_px_true)) * FPS * mm_per_px
+        true_speed = np.hypot(np.diff(mine.u_px_true), np.diff(mine.v_px_true)) * FPS * mm_per_px / 1e3  # m/s
         others = truth[(truth.particle != particle)].merge(mine[["t_s", "u_px", "v_px"]], on="t_s", suffixes=("", "_t"))
         closer_to_other = np.hypot(others.u_px - others.u_px_t, others.v_px - others.v_px_t) < err.to_numpy()[:len(others)]
         out[ball] = {"rms_px": float(np.sqrt((err**2).mean())), "max_px": float(err.max()),
-                     "speed_ratio": float(mine.speed_mm_per_s.mean() / true_speed.mean()),
+                     "speed_ratio": float(mine.frame_speed_m_per_s.mean() / true_speed.mean()),
                      "swapped_frames": int(closer_to_other.sum()), "lost": int(mine.lost.sum())}
     return out
 

@@ -21,8 +21,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .columns import add_frame_velocities
 from .config import CalibrationConfig, ConfigError, InteractionConfig, MM400Config, SimConfig
-from .lab import Condition, frame_speeds, simulate_mm400, summarise, video_collisions
+from .lab import Condition, simulate_mm400, summarise, video_collisions
 from .vision.track import TrackerSettings, track
 
 log = logging.getLogger(__name__)
@@ -43,12 +44,11 @@ def read_manifest(folder: str | Path) -> pd.DataFrame:
 
 
 def observe(tracked: pd.DataFrame, fps: float, jump_m_per_s: float) -> dict:
-    """Mean frame-to-frame speed (m/s) and video collisions per s from a tracker table."""
-    as_sim = pd.DataFrame({"t_s": tracked.time_s, "replica": 0, "particle": tracked.ball,
-                           "x_m": tracked.x_mm / 1e3, "z_m": tracked.y_mm / 1e3})
-    fs = frame_speeds(as_sim, fps)
-    span = tracked.time_s.max() - tracked.time_s.min()
-    return {"mean_speed_m_per_s": float(fs.speed.mean()),
+    """Mean frame-to-frame speed (m/s) and video collisions per s from a tracker table, measured
+    as lab.summarise measures them on simulated trajectories."""
+    fs = add_frame_velocities(tracked, fps)
+    span = tracked.t_s.max() - tracked.t_s.min()
+    return {"mean_speed_m_per_s": float(fs.frame_speed_m_per_s.mean()),
             "video_collisions_per_s": video_collisions(fs, jump_m_per_s) / span,
             "frames": int(tracked.frame.nunique()), "lost_ball_frames": int(tracked.lost.sum())}
 
@@ -69,7 +69,7 @@ def observations(folder: str | Path, lab: MM400Config) -> pd.DataFrame:
             table = track(video, TrackerSettings(balls=int(v.balls), ball_diameter_mm=float(v.ball_diameter_mm)),
                           fps=fps, mm_per_px=mm_per_px)
             table.to_csv(cached, index=False)
-        fps = fps or 1.0 / np.median(np.diff(np.sort(table.time_s.unique())))
+        fps = fps or 1.0 / np.median(np.diff(np.sort(table.t_s.unique())))
         rows.append({"file": v.file, "balls": int(v.balls), "frequency_hz": float(v.frequency_hz),
                      "ball_diameter_m": float(v.ball_diameter_mm) / 1e3,
                      **observe(table, fps, lab.collision_speed_jump_m_per_s)})
@@ -132,3 +132,24 @@ def sensitivity(simulated: pd.DataFrame, best) -> dict:
             slope = np.polyfit(line.index, line[col], 1)[0] if len(line) > 1 else float("nan")
             out[f"d_{name}_d_{var.removeprefix('wall_')}_relative"] = float(slope / max(line[col].mean(), 1e-12))
     return out
+
+
+def calibrate_to_files(opts: CalibrationConfig, s) -> dict:
+    """`ballmill calibrate`: observations, score surface, simulated table, best.json and the figures
+    (score surface; validation at the best pair) in opts.out; returns the best pair."""
+    from .files import write_json
+    from .plots import plot_lab_validation, plot_score_surface, save_figure
+
+    out = Path(opts.out)
+    out.mkdir(parents=True, exist_ok=True)
+    obs = observations(opts.videos, s.lab)
+    obs.to_csv(out / "observations.csv", index=False)
+    surface, simulated, best = calibrate(obs, s.lab, opts, s.materials, s.interactions, s.sim)
+    surface.to_csv(out / "score_surface.csv", index=False)
+    simulated.to_csv(out / "simulated.csv", index=False)
+    write_json(out / "best.json", best)
+    save_figure(plot_score_surface(surface, best), out / "score_surface")
+    at_best = simulated[(simulated.wall_restitution == best["wall_restitution"])
+                        & (simulated.wall_friction == best["wall_friction"])]
+    save_figure(plot_lab_validation(at_best, obs), out / "validation")
+    return best

@@ -1,8 +1,14 @@
-"""The `ballmill` command: `ballmill run|report|bench|track|render|calibrate ...`.
+"""The `ballmill` command: `ballmill COMMAND [key=value ...]`.
 
-track, render and calibrate take Hydra-style `key=value` arguments: their own options (the
-fields of the dataclasses below) bare, anything of the composed config (lab.*, sim.*,
-interactions.*, calibrate.*) as a Hydra override.
+Every command takes Hydra overrides and nothing else: its own options (conf/<command>.yaml,
+schema in config.py) by bare name, and for run, render and calibrate any field of the run's
+config groups (sim.*, mill.*, lab.*, materials.*, interactions.*, ...).  `ballmill COMMAND
+--help` lists the fields with their defaults, allowed ranges and units.
+
+A user error (a value out of range, an unknown key, a missing or unreadable input) prints one
+line, `error: ...`, and exits with status 2 before anything runs; `--debug` (or
+BALLMILL_DEBUG=1) prints the traceback too.  A run or sweep with failed jobs exits with 1.
+A new command is a function here, its entry in COMMANDS, a schema and a conf/<command>.yaml.
 """
 
 from __future__ import annotations
@@ -10,155 +16,225 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
+import os
 import sys
+import time
+import traceback
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-USAGE = """usage: ballmill COMMAND [ARGS]
-  run [hydra overrides]      one scenario, or a sweep with -m / +sweep=NAME (files in sweep/)
-  report SWEEP_DIR [...]     tables, figures and a Markdown report from sweep folders
-  bench [options]            DEM throughput on the reference drum (see --help)
-  track video=PATH [fps=2134 mm_per_px=0.2 balls=2 ball_diameter_mm=17.6 polarity=auto out=CSV]
-                             ball positions and speeds from a video file or image folder
-  render out=DIR [wall_restitution=0.6 wall_friction=0.3 backlit=true mm_per_px=0.2 lab.*=...]
-                             simulate the MM400 conditions and film them: videos + videos.csv
-  calibrate videos=DIR [out=DIR calibrate.*=... lab.*=...]
-                             grid search of the ball-wall pair against tracked videos
-"""
+from omegaconf import DictConfig, OmegaConf
+
+from .config import COMMANDS as SCHEMAS
+from .config import (
+    CONF_DIR,
+    ConfigError,
+    DrumConfig,
+    EconomicsConfig,
+    MM400Config,
+    ScaleupConfig,
+    SimConfig,
+    StudyConfig,
+    to_object,
+)
+
+log = logging.getLogger("ballmill")
+USER_ERRORS = (ConfigError, FileNotFoundError, IsADirectoryError, NotADirectoryError)
+HYDRA_VALUE_FLAGS = {"--config-dir", "-cd", "--config-path", "-cp", "--config-name", "-cn", "--cfg", "-c",
+                     "--package", "-p", "--info", "-i", "--experimental-rerun"}
 
 
-@dataclass
-class TrackArgs:
-    video: str = "???"
-    fps: float | None = None  # capture rate; else the video's capture.json / .json sidecar
-    mm_per_px: float | None = None
-    balls: int = 2
-    ball_diameter_mm: float = 17.6
-    polarity: str = "auto"
-    out: str | None = None  # default: <video>.track.csv
+class JobsFailed(Exception):
+    """A run or sweep finished with failed jobs (their folders hold FAILED.json)."""
 
 
-@dataclass
-class RenderArgs:
-    out: str = "outputs/lab/videos"
-    wall_restitution: float = 0.6
-    wall_friction: float = 0.3
-    backlit: bool = True
-    mm_per_px: float = 0.2
-    noise_grey: float = 2.0
+def options(cfg: DictConfig, command: str):
+    """The command's own options (its schema's fields at the config's root), range-checked."""
+    schema = SCHEMAS[command]
+    own = OmegaConf.masked_copy(cfg, [f.name for f in dataclasses.fields(schema)])
+    return to_object(own, schema, "")
 
 
-@dataclass
-class CalibrateArgs:
-    videos: str = "???"
-    out: str = "outputs/lab/calibration"
+def scenario_of(cfg: DictConfig):
+    from .scenario import load
+
+    return load(cfg)
 
 
-def parse(schema, args: list[str]):
-    """(the schema's options, the remaining Hydra overrides) from key=value arguments."""
-    from omegaconf import OmegaConf
-    from omegaconf.errors import OmegaConfBaseException
+def track_cmd(cfg: DictConfig) -> None:
+    from .vision.track import track_to_files
 
-    names = {f.name for f in dataclasses.fields(schema)}
-    own = [a for a in args if a.split("=", 1)[0] in names]
-    try:
-        opts = OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(schema), OmegaConf.from_dotlist(own)))
-    except OmegaConfBaseException as exc:  # names the key and the expected type
-        sys.exit(f"ballmill: {exc}")
-    return opts, [a for a in args if a not in own]
-
-
-def compose(overrides: list[str]):
-    """The project's config with Hydra overrides (sim=lab unless given), validated:
-    (lab, sim, materials, interactions, calibrate)."""
-    from hydra import compose as hydra_compose
-    from hydra import initialize_config_dir
-
-    from .config import CalibrationConfig, MM400Config, SimConfig, material_tables, register, to_object
-    from .run import ROOT
-
-    register()
-    with initialize_config_dir(str(ROOT / "conf"), version_base="1.3"):
-        cfg = hydra_compose("config", ["sim=lab", *overrides])  # a later sim=... wins
-    return (to_object(cfg.lab, MM400Config, "lab"), to_object(cfg.sim, SimConfig, "sim"), *material_tables(cfg),
-            to_object(cfg.calibrate, CalibrationConfig, "calibrate"))
-
-
-def track_cmd(args: list[str]) -> None:
-    from .vision.track import TrackerSettings, track
-
-    opts, rest = parse(TrackArgs, args)
-    if rest or opts.video == "???":
-        sys.exit(f"ballmill track: give video=PATH; unknown arguments {rest}" if rest else "ballmill track: give video=PATH")
-    table = track(opts.video, TrackerSettings(opts.balls, opts.ball_diameter_mm, opts.polarity), opts.fps, opts.mm_per_px)
-    out = Path(opts.out or f"{opts.video.rstrip('/')}.track.csv")
-    table.to_csv(out, index=False)
-    table.to_parquet(out.with_suffix(".parquet"), index=False)
-    lost = table.groupby("ball").lost.sum().to_dict()
+    opts = options(cfg, "track")
+    table, out = track_to_files(opts)
+    lost = table.groupby("particle").lost.sum().to_dict()
     print(f"{out}: {table.frame.nunique()} frames, frames with a ball lost {lost}, "
-          f"mean speed {table.speed_mm_per_s.mean() / 1e3:.3f} m/s ({table.attrs['polarity']} balls)")
+          f"mean speed {table.frame_speed_m_per_s.mean():.3f} m/s ({table.attrs['polarity']} balls)")
 
 
-def render_cmd(args: list[str]) -> None:
+def render_cmd(cfg: DictConfig) -> None:
     from .lab import conditions, simulate_mm400
     from .vision.render import Camera, render_lab_videos
 
-    opts, rest = parse(RenderArgs, args)
-    lab, sim, materials, interactions, _ = compose(rest)
-    conds = conditions(lab, [opts.wall_restitution], [opts.wall_friction])
-    traj, _ = simulate_mm400(lab, conds, materials, interactions, sim)
-    cam = Camera(mm_per_px=opts.mm_per_px, backlit=opts.backlit, noise_grey=opts.noise_grey, seed=sim.seed)
-    manifest = render_lab_videos(opts.out, lab, conds, traj, cam)
+    opts, s = options(cfg, "render"), scenario_of(cfg)
+    conds = conditions(s.lab, [opts.wall_restitution], [opts.wall_friction])
+    traj, _ = simulate_mm400(s.lab, conds, s.materials, s.interactions, s.sim)
+    cam = Camera(mm_per_px=opts.mm_per_px, backlit=opts.backlit, noise_grey=opts.noise_grey, seed=s.sim.seed)
+    manifest = render_lab_videos(opts.out, s.lab, conds, traj, cam)
     print(f"{opts.out}: {len(manifest)} videos, manifest videos.csv")
 
 
-def calibrate_cmd(args: list[str]) -> None:
-    from .calibrate import calibrate, observations
-    from .plots import plot_lab_validation, plot_score_surface, save_figure
+def calibrate_cmd(cfg: DictConfig) -> None:
+    from .calibrate import calibrate_to_files
 
-    opts, rest = parse(CalibrateArgs, args)
-    if opts.videos == "???":
-        sys.exit("ballmill calibrate: give videos=DIR (a folder with videos.csv)")
-    lab, sim, materials, interactions, grid = compose(rest)
-    out = Path(opts.out)
-    out.mkdir(parents=True, exist_ok=True)
-    obs = observations(opts.videos, lab)
-    obs.to_csv(out / "observations.csv", index=False)
-    surface, simulated, best = calibrate(obs, lab, grid, materials, interactions, sim)
-    surface.to_csv(out / "score_surface.csv", index=False)
-    simulated.to_csv(out / "simulated.csv", index=False)
-    (out / "best.json").write_text(json.dumps({**best, "overrides": rest}, indent=2))
-    save_figure(plot_score_surface(surface, best), out / "score_surface")
-    at_best = simulated[(simulated.wall_restitution == best["wall_restitution"])
-                        & (simulated.wall_friction == best["wall_friction"])]
-    save_figure(plot_lab_validation(at_best, obs), out / "validation")
+    best = calibrate_to_files(options(cfg, "calibrate"), scenario_of(cfg))
     print(json.dumps(best, indent=2))
 
 
-def main() -> None:
-    if len(sys.argv) < 2 or sys.argv[1] in ("-h", "--help"):
-        print(USAGE)
+def report_cmd(cfg: DictConfig) -> None:
+    from .report import report
+
+    opts = options(cfg, "report")
+    if not opts.sweeps:
+        raise ConfigError("sweeps=[] is empty: give sweeps=[outputs/sweeps/NAME,...]")
+    for d in opts.sweeps:
+        print(report(Path(d), Path(opts.out)))
+
+
+def bench_cmd(cfg: DictConfig) -> None:
+    from .bench import main
+
+    main(options(cfg, "bench"))
+
+
+@dataclass(frozen=True)
+class Command:
+    summary: str
+    main: Callable[[DictConfig], None] | None  # None: `run`, handed to Hydra's launcher
+    groups: tuple[tuple[str, type], ...] = ()  # config groups it reads, listed by --help
+
+
+RUN_GROUPS = (("sim", SimConfig), ("mill", DrumConfig), ("scaleup", ScaleupConfig), ("economics", EconomicsConfig),
+              ("lab", MM400Config), ("study", StudyConfig))
+LAB_GROUPS = (("sim", SimConfig), ("lab", MM400Config))
+COMMANDS = {
+    "run": Command("one scenario, or a sweep (-m, or +sweep=NAME from conf/sweep/)", None, RUN_GROUPS),
+    "report": Command("tables, figures and a Markdown report from sweep folders", report_cmd),
+    "track": Command("ball positions and speeds from a video file or image folder", track_cmd),
+    "render": Command("simulate the MM400 conditions and film them: videos + videos.csv", render_cmd, LAB_GROUPS),
+    "calibrate": Command("fit the ball-wall restitution and friction to tracked videos", calibrate_cmd, LAB_GROUPS),
+    "bench": Command("DEM throughput (particle-steps/s) on the reference drum", bench_cmd),
+}
+
+
+def describe(schema, prefix: str = "") -> list[str]:
+    """One line per field: name = default, allowed range or choices, and its note."""
+    lines = []
+    for f in dataclasses.fields(schema):
+        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        if dataclasses.is_dataclass(default):
+            lines += describe(type(default), f"{prefix}{f.name}.")
+            continue
+        meta, allowed = f.metadata, ""
+        if "choices" in meta:
+            allowed = "one of " + ", ".join(map(str, meta["choices"]))
+        elif "range" in meta:
+            lo, hi, lo_open, hi_open = meta["range"]
+            allowed = (f"{'(' if lo_open else '['}{'-inf' if lo is None else lo}, "
+                       f"{'inf' if hi is None else hi}{')' if hi_open else ']'}")
+        shown = "(required)" if default == "???" else json.dumps(default)
+        lines.append(f"  {prefix}{f.name} = {shown}  {allowed}  {meta.get('doc', '')}".rstrip())
+    return lines
+
+
+def usage() -> str:
+    width = max(map(len, COMMANDS))
+    return "\n".join(["usage: ballmill COMMAND [key=value ...] [--debug]   (ballmill COMMAND --help: its fields)", "",
+                      *(f"  {name:<{width}}  {c.summary}" for name, c in COMMANDS.items())])
+
+
+def help_text(name: str) -> str:
+    command = COMMANDS[name]
+    lines = [f"usage: ballmill {name} [key=value ...]: {command.summary}", ""]
+    if name in SCHEMAS:
+        lines += [f"{SCHEMAS[name].__doc__.strip()}", "", "Options:", *describe(SCHEMAS[name]), ""]
+    for group, schema in command.groups:
+        lines += [f"{group}.*: {schema.__doc__.strip().splitlines()[0]}",
+                  *describe(schema, f"{group}."), ""]
+    if command.groups:
+        lines += ["materials.NAME.* and interactions.A-B.* as in conf/material/ and conf/interactions/.", ""]
+    if name == "run":
+        sweeps = sorted(p.stem for p in (CONF_DIR / "sweep").glob("*.yaml"))
+        lines += [f"Sweeps (+sweep=NAME): {', '.join(sweeps)}",
+                  ("Hydra's flags (-m, --cfg job, --hydra-help, ...) pass through; add your own config folder "
+                  "with hydra.searchpath=[file:///path/to/conf].")]
+    return "\n".join(lines)
+
+
+def compose_command(name: str, overrides: list[str]) -> DictConfig:
+    from .scenario import compose
+
+    for arg in overrides:
+        if "=" not in arg:
+            key = {"report": "sweeps", "track": "video", "calibrate": "videos"}.get(name, "key")
+            raise ConfigError(f"{arg!r} is not key=value: options are Hydra overrides, e.g. {key}=[{arg}]"
+                              if key == "sweeps" else f"{arg!r} is not key=value, e.g. {key}={arg}")
+    return compose(name, overrides)
+
+
+def run_command(args: list[str]) -> None:
+    """Check every job of the run or sweep (no simulation), then hand the lot to Hydra's launcher."""
+    from . import run as run_module
+    from .jobs import check_jobs, failed_since
+
+    overrides, flags, i = [], [], 0
+    while i < len(args):
+        if args[i] in HYDRA_VALUE_FLAGS and i + 1 < len(args):
+            flags += args[i:i + 2]
+            i += 2
+            continue
+        (flags if args[i].startswith("-") else overrides).append(args[i])
+        i += 1
+    inspecting = any(f in flags for f in ("--cfg", "-c", "--info", "-i", "--hydra-help", "--resolve"))
+    sweep_dir = None if inspecting else check_jobs(overrides, multirun="-m" in flags or "--multirun" in flags)
+    started = time.time()
+    saved, sys.argv = sys.argv, ["ballmill run", *args]
+    try:
+        run_module.main()
+    finally:
+        sys.argv = saved
+    failed = failed_since(sweep_dir, started) if sweep_dir else run_module.FAILED_JOBS
+    if failed:
+        raise JobsFailed(f"{len(failed)} job(s) failed (see their FAILED.json): {', '.join(map(str, failed))}")
+
+
+def main(argv: list[str] | None = None) -> None:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv or os.environ.get("BALLMILL_DEBUG", "") not in ("", "0")
+    argv = [a for a in argv if a != "--debug"]
+    if not argv or argv[0] in ("-h", "--help", "help"):
+        print(usage())
         return
-    cmd, rest = sys.argv[1], sys.argv[2:]
-    if cmd == "run":
-        from .run import ROOT
-        from .run import main as run_main
-
-        sys.argv = [f"{sys.argv[0]} run", *rest, f"hydra.searchpath=[file://{ROOT}]"]
-        run_main()
-    elif cmd == "report":
-        from .report import main as report_main
-
-        report_main(rest)
-    elif cmd == "bench":
-        from .bench import main as bench_main
-
-        bench_main(rest)
-    elif cmd in COMMANDS:
-        logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
-        COMMANDS[cmd](rest)
-    else:
-        sys.exit(f"ballmill: unknown command {cmd!r}\n{USAGE}")
+    name, args = argv[0], argv[1:]
+    if name not in COMMANDS:
+        fail(f"unknown command {name!r}; one of {', '.join(COMMANDS)}", 2)
+    if any(a in ("-h", "--help") for a in args):
+        print(help_text(name))
+        return
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        if name == "run":
+            run_command(args)
+        else:
+            COMMANDS[name].main(compose_command(name, args))
+    except USER_ERRORS as exc:
+        if debug:
+            traceback.print_exc()
+        fail(str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__, 2)
+    except JobsFailed as exc:
+        fail(str(exc), 1)
 
 
-COMMANDS = {"track": track_cmd, "render": render_cmd, "calibrate": calibrate_cmd}
+def fail(message: str, status: int) -> None:
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(status)

@@ -1,17 +1,24 @@
 """The configuration schema: structured configs registered with Hydra.
 
 Every field has a unit in its name (or is dimensionless) and, where a range applies, the
-allowed range in its metadata.  `validate` checks a composed config against them before any
-simulation starts and names the field, the value and the range when one is off.
+allowed range in its metadata.  `to_object` turns a composed config node into its dataclass and
+checks every value against them (numbers must also be finite), naming the field, the value and
+the range when one is off.  The run's groups (sim, mill, scaleup, economics, lab, study) come
+first, then the options of the other commands (track, render, calibrate, report, bench).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
+from importlib.resources import files
+from pathlib import Path
 
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig, OmegaConf
+
+CONF_DIR = Path(str(files("ballmill") / "conf"))  # the YAML configs, packaged with the wheel
 
 
 def rng(default, lo=None, hi=None, *, lo_open=False, hi_open=False, doc=""):
@@ -20,7 +27,8 @@ def rng(default, lo=None, hi=None, *, lo_open=False, hi_open=False, doc=""):
 
 
 class ConfigError(ValueError):
-    """A config value outside its allowed range, or an unknown name."""
+    """A config value outside its allowed range, an unknown name, or an input file that cannot be
+    used: the user's to fix (the command line prints its message alone)."""
 
 
 @dataclass
@@ -41,12 +49,16 @@ class InteractionConfig:
 
 @dataclass
 class SimConfig:
+    """Numerics of a DEM run: backend, time step, durations, sampling, outputs and guard rails."""
+
     arch: str = field(default="cpu", metadata={"choices": ("cpu", "cuda")})
     precision: str = field(default="f64", metadata={"choices": ("f64", "f32")})
     threads: int = rng(0, 0, None, doc="CPU threads for Taichi; 0 = all cores")
     seed: int = rng(0, 0, None)
     dt_fraction: float = rng(0.2, 0.0, 1.0, lo_open=True, doc="time step as a fraction of Rayleigh's")
     dt_s: float | None = rng(None, 0.0, None, lo_open=True, doc="explicit time step (s), overrides dt_fraction")
+    allow_unstable_time_step: bool = field(default=False, metadata={
+        "doc": "run even at a time step at or above the Rayleigh step (refused otherwise)"})
     shear_modulus_scale: float = rng(1.0, 0.0, 1.0, lo_open=True, doc="stiffness reduction for speed (1 = physical)")
     settle_s: float = rng(0.5, 0.0, None, doc="time the charge settles before the vessel moves (s)")
     duration_s: float = rng(1.0, 0.0, None, lo_open=True, doc="time simulated after settling (s)")
@@ -59,8 +71,15 @@ class SimConfig:
                                            doc="simulated time between checkpoints of a drum run (s); null: none")
     neighbour_skin: float = rng(0.5, 0.0, None, lo_open=True,
                                 doc="Verlet skin / largest ball radius (larger: fewer list rebuilds, more candidates)")
-    event_capacity: int = rng(200_000, 1, None)
-    max_overlap_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True)
+    event_capacity: int = rng(200_000, 1, None, doc="collisions held between two samples")
+    max_overlap_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True, doc="largest overlap / radius before a run stops")
+    neighbour_search: str = field(default="auto", metadata={
+        "choices": ("auto", "grid", "all_pairs"), "doc": "auto: a cell grid when a replica has more than 8 balls"})
+    launch: str = field(default="auto", metadata={
+        "choices": ("auto", "serial", "parallel"),
+        "doc": "serial: whole steps per launch (auto: replica batches, <= 3000 balls or one thread)"})
+    collision_log: bool = field(default=True, metadata={"doc": "record every finished contact (collisions table)"})
+    progress_every_s: float = rng(30.0, 0.0, None, lo_open=True, doc="wall-clock time between progress log lines (s)")
 
 
 @dataclass
@@ -155,8 +174,11 @@ MM400_GEOMETRY = ("jar_volume_ml", "jar_inner_diameter_m", "amplitude_m", "pivot
 
 @dataclass
 class CalibrationConfig:
-    """Grid of ball-wall (steel-PMMA) restitution and friction scored against tracked videos."""
+    """`ballmill calibrate`: grid of ball-wall (steel-PMMA) restitution and friction scored against
+    the tracked videos of a folder (with its videos.csv manifest)."""
 
+    videos: str = field(default="???", metadata={"doc": "folder of videos with a videos.csv manifest"})
+    out: str = field(default="outputs/lab/calibration", metadata={"doc": "where tables, figures and best.json go"})
     restitutions: list[float] = field(default_factory=lambda: [0.3, 0.45, 0.6, 0.75, 0.9])
     frictions: list[float] = field(default_factory=lambda: [0.1, 0.2, 0.3, 0.4, 0.5])
     collision_weight: float = rng(1.0, 0.0, None, doc="weight of the collision-rate error beside the speed error")
@@ -164,8 +186,84 @@ class CalibrationConfig:
     def __post_init__(self):
         for name, values, lo_open, hi in (("restitutions", self.restitutions, True, 1.0),
                                           ("frictions", self.frictions, False, None)):
+            if not values:
+                raise ConfigError(f"{name}=[] is empty: give at least one value")
             for i, v in enumerate(values):
-                _check_field(f"calibrate.{name}[{i}]", v, {"range": (0.0, hi, lo_open, False)})
+                _check_field(f"{name}[{i}]", v, {"range": (0.0, hi, lo_open, False)})
+
+
+@dataclass
+class StudyReport:
+    """How `ballmill report` presents a sweep of this study: named parts, each a function of report.py."""
+
+    figure: str | None = field(default=None, metadata={"doc": "a figure of plots.FIGURES drawn from the records"})
+    sections: list[str] = field(default_factory=list, metadata={"doc": "report.SECTIONS, in order"})
+    compare: str | None = field(default=None, metadata={
+        "doc": "case column of data/paper2023_reported.csv: the paper's numbers to set beside ours"})
+
+
+@dataclass
+class StudyConfig:
+    """What a run does (a pipeline of studies.STUDIES) and how its sweep is reported."""
+
+    name: str = "design"
+    kind: str = field(default="design", metadata={"choices": ("design", "drum", "lab")})
+    observations: str | None = field(default=None, metadata={"doc": "observations.csv drawn beside a lab study"})
+    report: StudyReport = field(default_factory=StudyReport)
+
+
+@dataclass
+class TrackConfig:
+    """`ballmill track`: ball positions and speeds from a video file or an image folder."""
+
+    video: str = field(default="???", metadata={"doc": "video file or folder of images"})
+    fps: float | None = rng(None, 0.0, None, lo_open=True,
+                            doc="capture rate (frames/s); else the video's capture.json / .json sidecar")
+    mm_per_px: float | None = rng(None, 0.0, None, lo_open=True, doc="image scale; else the sidecar's")
+    balls: int = rng(2, 1, 2, doc="balls in the jar")
+    ball_diameter_mm: float = rng(17.6, 0.0, None, lo_open=True, doc="ball size")
+    polarity: str = field(default="auto", metadata={"choices": ("auto", "dark", "bright")})
+    out: str | None = field(default=None, metadata={"doc": "CSV path; default <video>.track.csv"})
+
+
+@dataclass
+class RenderConfig:
+    """`ballmill render`: simulate the MM400 conditions (lab.*) and film them as synthetic videos."""
+
+    out: str = field(default="outputs/lab/videos", metadata={"doc": "folder for the videos and videos.csv"})
+    wall_restitution: float = rng(0.6, 0.0, 1.0, lo_open=True, doc="ball-wall restitution filmed")
+    wall_friction: float = rng(0.3, 0.0, None, doc="ball-wall friction filmed")
+    backlit: bool = field(default=True, metadata={"doc": "dark balls on a bright background"})
+    mm_per_px: float = rng(0.2, 0.0, None, lo_open=True)
+    noise_grey: float = rng(2.0, 0.0, None, doc="camera noise, grey levels (1 sigma)")
+
+
+@dataclass
+class ReportConfig:
+    """`ballmill report`: tables, figures and a Markdown report from sweep folders."""
+
+    sweeps: list[str] = field(default_factory=list, metadata={"doc": "sweep folders of `ballmill run -m`"})
+    out: str = field(default="outputs/report", metadata={"doc": "where the report goes"})
+
+
+@dataclass
+class BenchConfig:
+    """`ballmill bench`: DEM throughput (particle-steps/s) on the reference drum."""
+
+    cases: list[str] = field(default_factory=lambda: ["1000", "8640", "bpr19"],
+                             metadata={"doc": "ball counts of the scaled reference drum, or bpr19"})
+    arch: str = field(default="cpu", metadata={"choices": ("cpu", "cuda")})
+    precision: str = field(default="f64", metadata={"choices": ("f64", "f32")})
+    threads: int = rng(0, 0, None, doc="CPU threads (0: all cores)")
+    skin: float = rng(0.5, 0.0, None, lo_open=True, doc="neighbour skin / largest ball radius")
+    settle_s: float = rng(0.3, 0.0, None, doc="settling time before the timed rotation (s)")
+    rotate_s: float = rng(1.0, 0.0, None, lo_open=True, doc="timed rotation (s)")
+    profile_steps: int = rng(50, 1, None)
+    lab: bool = field(default=False, metadata={"doc": "the MM400 10 x 10 grid instead of the drum"})
+    lab_duration_s: float = rng(2.0, 0.0, None, lo_open=True, doc="simulated time per MM400 replica (s)")
+    peer: str | None = field(default=None, metadata={"choices": (None, "liggghts"),
+                                                     "doc": "run the same drums in LIGGGHTS (1 and 2 MPI ranks)"})
+    json: str = field(default="outputs/bench/bench.json", metadata={"doc": "where the figures are written"})
 
 
 def register() -> None:
@@ -176,12 +274,21 @@ def register() -> None:
     cs.store(group="scaleup", name="base_scaleup", node=ScaleupConfig)
     cs.store(group="economics", name="base_economics", node=EconomicsConfig)
     cs.store(group="lab", name="base_mm400", node=MM400Config)
-    cs.store(group="calibrate", name="base_calibrate", node=CalibrationConfig)
+    cs.store(group="study", name="base_study", node=StudyConfig)
+    for name, node in COMMANDS.items():
+        cs.store(name=f"base_{name}", node=node)
+
+
+# The options of each command other than `run` (its config is conf/<command>.yaml).
+COMMANDS = {"track": TrackConfig, "render": RenderConfig, "calibrate": CalibrationConfig, "report": ReportConfig,
+            "bench": BenchConfig}
 
 
 def _check_field(path: str, value, meta) -> None:
     if "choices" in meta and value not in meta["choices"]:
         raise ConfigError(f"{path}={value!r} is not one of {list(meta['choices'])}")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"{path}={value} is not a finite number")
     if "range" not in meta or value is None:
         return
     lo, hi, lo_open, hi_open = meta["range"]
@@ -196,17 +303,26 @@ def _check_field(path: str, value, meta) -> None:
 
 
 def check(obj, path: str) -> None:
-    """Range-check a dataclass instance (recursing into dataclasses and dicts of them)."""
+    """Range-check a dataclass instance (recursing into dataclasses, lists and dicts of them);
+    `path` prefixes the field names in messages ("" for a command's own options)."""
     if isinstance(obj, dict):
         for k, v in obj.items():
-            check(v, f"{path}.{k}")
+            check(v, _join(path, k))
+        return
+    if isinstance(obj, list):
+        for i, v in enumerate(obj):
+            _check_field(f"{path}[{i}]", v, {})
         return
     if not dataclasses.is_dataclass(obj):
         return
     for f in dataclasses.fields(obj):
         value = getattr(obj, f.name)
-        _check_field(f"{path}.{f.name}", value, f.metadata)
-        check(value, f"{path}.{f.name}")
+        _check_field(_join(path, f.name), value, f.metadata)
+        check(value, _join(path, f.name))
+
+
+def _join(path: str, name) -> str:
+    return f"{path}.{name}" if path else str(name)
 
 
 def to_object(cfg: DictConfig, schema: type, path: str):
@@ -216,10 +332,18 @@ def to_object(cfg: DictConfig, schema: type, path: str):
         values = OmegaConf.to_container(cfg, resolve=True) if isinstance(cfg, DictConfig) else cfg
         merged = OmegaConf.merge(base, values)
     except Exception as exc:  # omegaconf's message names the key and the expected type
-        raise ConfigError(f"{path}: {exc}") from exc
-    obj = OmegaConf.to_object(merged)
+        raise ConfigError(f"{path or 'options'}: {one_line(exc)}") from exc
+    try:
+        obj = OmegaConf.to_object(merged)
+    except Exception as exc:  # a mandatory value (???) not given
+        raise ConfigError(f"{path or 'options'}: {one_line(exc)}") from exc
     check(obj, path)
     return obj
+
+
+def one_line(exc: Exception) -> str:
+    """omegaconf's and Hydra's messages without their multi-line context blocks."""
+    return " ".join(str(exc).split("\n")[0].split())
 
 
 def material_tables(cfg: DictConfig) -> tuple[dict[str, MaterialConfig], dict[str, InteractionConfig]]:

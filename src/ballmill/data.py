@@ -1,22 +1,25 @@
-"""Literature tables shipped in data/, each row with its source, year and URL."""
+"""Literature tables shipped with the package (data/), each row with its source, year and URL."""
 
 from __future__ import annotations
 
 from functools import cache
+from importlib.resources import files
 from pathlib import Path
 
 import pandas as pd
 
-DATA_DIR = Path(__file__).resolve().parents[2] / "data"
+from .config import ConfigError
+
+DATA_DIR = Path(str(files("ballmill") / "data"))
 
 
 @cache
 def table(name: str) -> pd.DataFrame:
-    """A data/ table; raises with the folder's listing when it is missing."""
+    """A data/ table; a ConfigError names the folder's tables when it is missing."""
     path = DATA_DIR / name
-    if not path.exists():
+    if not path.is_file():
         known = sorted(p.name for p in DATA_DIR.glob("*.csv"))
-        raise FileNotFoundError(f"data table {name!r} not found in {DATA_DIR}; available: {known}")
+        raise ConfigError(f"data table {name!r} not found in {DATA_DIR}; available: {known}")
     return pd.read_csv(path)
 
 
@@ -24,5 +27,5 @@ def lookup(name: str, key_column: str, key, value_column: str) -> float:
     df = table(name)
     rows = df[df[key_column] == key]
     if rows.empty:
-        raise KeyError(f"{name}: no row with {key_column}={key!r}; have {df[key_column].tolist()}")
+        raise ConfigError(f"{name}: no row with {key_column}={key!r}; have {df[key_column].tolist()}")
     return float(rows.iloc[0][value_column])

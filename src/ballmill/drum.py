@@ -7,34 +7,49 @@ import json
 import logging
 import math
 import tempfile
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .config import ConfigError, DrumConfig, InteractionConfig, MaterialConfig, SimConfig
+from .config import ConfigError, DrumConfig, SimConfig
 from .dem import (
     Body,
     Checkpoint,
     Cylinder,
     Engine,
-    EngineOptions,
-    Interaction,
     Material,
     Mesh,
     Motion,
+    ParquetSink,
     Plane,
     Recorder,
+    Results,
+    SimulationError,
     SystemSpec,
     init_taichi,
 )
 from .dem.vtk import VtkWriter
+from .files import read_json, write_json
 from .impacts import impact_statistics
 from .scaleup import critical_speed_rpm
+from .scenario import engine_materials, engine_options, time_step_s
 
 log = logging.getLogger(__name__)
 AXIS = (0.0, 1.0, 0.0)  # drum axis; gravity is -z
 BED_SNAPSHOTS = 4  # particle states recorded at this many instants of the averaging window (bed picture)
+# The starting lattice: sites 2.04 r apart (2 % gaps, so no ball starts in contact) at least
+# 1.05 r from the walls (5 % clearance): a loose bed that settles in a fraction of a second.
+LATTICE_SPACING = 2.04
+WALL_CLEARANCE = 1.05
+
+
+@dataclass
+class DrumRun:
+    """A finished drum DEM: its summary (torque, power, impacts) and time series."""
+
+    summary: dict
+    results: Results
 
 
 def drum_speed_rpm(drum: DrumConfig) -> float:
@@ -55,11 +70,11 @@ def ball_count(drum: DrumConfig) -> int:
 def lattice_packing(drum: DrumConfig, n: int, seed: int) -> np.ndarray:
     """n ball centres on a loose cubic lattice, lowest sites first, slightly jittered (m)."""
     r, big_r, half = drum.ball_radius_m, drum.inner_diameter_m / 2, drum.inner_length_m / 2
-    step = 2.04 * r
-    xs = np.arange(-big_r + 1.05 * r, big_r - r, step)
-    ys = np.arange(-half + 1.05 * r, half - r, step)
+    step, gap = LATTICE_SPACING * r, WALL_CLEARANCE * r
+    xs = np.arange(-big_r + gap, big_r - r, step)
+    ys = np.arange(-half + gap, half - r, step)
     grid = np.array(np.meshgrid(xs, ys, xs, indexing="ij")).reshape(3, -1).T
-    inside = np.hypot(grid[:, 0], grid[:, 2]) <= big_r - 1.05 * r
+    inside = np.hypot(grid[:, 0], grid[:, 2]) <= big_r - gap
     sites = grid[inside]
     if len(sites) < n:
         raise ConfigError(
@@ -87,9 +102,6 @@ def drum_mesh(drum: DrumConfig) -> Mesh:
 
 def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, sim: SimConfig) -> SystemSpec:
     """The drum, its charge at rest, turning from t = sim.settle_s at drum_speed_rpm."""
-    for name in (drum.ball_material, drum.wall_material):
-        if name not in materials:
-            raise ConfigError(f"mill: unknown material {name!r}; known: {sorted(materials)}")
     n = ball_count(drum)
     big_r, half, r = drum.inner_diameter_m / 2, drum.inner_length_m / 2, drum.ball_radius_m
     if drum.geometry == "stl":
@@ -114,38 +126,21 @@ def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, 
     )
 
 
-def build_materials(materials: dict[str, MaterialConfig], interactions: dict[str, InteractionConfig],
-                    shear_modulus_scale: float = 1.0):
-    """Engine materials (stiffness scaled) and the pair table from config entries 'a-b'."""
-    mats = {
-        k: Material(k, m.density_kg_per_m3, m.shear_modulus_pa * shear_modulus_scale, m.poisson_ratio)
-        for k, m in materials.items()
-    }
-    pairs = {}
-    for key, p in interactions.items():
-        a, _, b = key.partition("-")
-        if a not in mats or b not in mats:
-            raise ConfigError(f"interactions.{key}: names materials not in {sorted(mats)} (write 'a-b')")
-        pairs[tuple(sorted((a, b)))] = Interaction(p.restitution, p.static_friction, p.rolling_friction)
-    return mats, pairs
+UNKEYED_SIM_FIELDS = ("threads", "neighbour_skin", "launch", "checkpoint_every_s", "progress_every_s")
 
 
-def time_step_s(spec: SystemSpec, sim: SimConfig) -> float:
-    return sim.dt_s if sim.dt_s is not None else sim.dt_fraction * spec.rayleigh_timestep_s()
-
-
-def engine_options(sim: SimConfig, dt_s: float) -> EngineOptions:
-    """The engine's numerical settings from the sim config group."""
-    return EngineOptions(
-        dt_s=dt_s, max_contacts_per_particle=sim.max_contacts_per_particle, event_capacity=sim.event_capacity,
-        max_overlap_fraction=sim.max_overlap_fraction, skin_fraction=sim.neighbour_skin,
-    )
+def drum_spec(drum: DrumConfig, materials, interactions, sim: SimConfig) -> SystemSpec:
+    """The engine's system for a drum config (checks materials and that the balls fit)."""
+    mats, pairs = engine_materials(materials, interactions, sim.shear_modulus_scale, drum.ball_material,
+                                   drum.wall_material)
+    return drum_system(drum, mats, pairs, sim)
 
 
 def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
     """Hash of everything that determines a drum DEM result (prices and feeds do not, nor the
-    thread count, the neighbour skin or checkpoints: results are identical bits whatever they are)."""
-    numerics = {k: v for k, v in asdict(sim).items() if k not in ("threads", "neighbour_skin", "checkpoint_every_s")}
+    thread count, the neighbour skin, the launch mode, checkpoints or progress: results are
+    identical bits whatever they are)."""
+    numerics = {k: v for k, v in asdict(sim).items() if k not in UNKEYED_SIM_FIELDS}
     payload = {
         "drum": asdict(drum), "materials": {k: asdict(v) for k, v in materials.items()},
         "interactions": {k: asdict(v) for k, v in interactions.items()}, "sim": numerics,
@@ -153,33 +148,39 @@ def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out_dir: Path) -> dict:
-    """Run the drum DEM (or reuse a finished run in out_dir) and summarise torque and power."""
+def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out_dir: Path) -> DrumRun:
+    """Run the drum DEM (or reuse the finished run in out_dir, a cache entry) and summarise
+    torque and power; the tables go to out_dir as Parquet (and VTK files when asked)."""
     out_dir = Path(out_dir)
     summary_path = out_dir / "dem_summary.json"
-    if summary_path.exists():
+    key = dem_key(drum, materials, interactions, sim)
+    cached = read_json(summary_path)
+    if cached is not None and cached.get("key") == key:
         log.info("reusing the DEM result in %s", out_dir)
-        return json.loads(summary_path.read_text())
-    mats, pairs = build_materials(materials, interactions, sim.shear_modulus_scale)
-    spec = drum_system(drum, mats, pairs, sim)
+        return DrumRun(cached, Results.read(out_dir))
+    if summary_path.exists():
+        log.warning("%s: unreadable or of another run: running it again", summary_path)
+    spec = drum_spec(drum, materials, interactions, sim)
     dt = time_step_s(spec, sim)
     init_taichi(sim.arch, sim.precision, sim.threads, sim.seed)
     engine = Engine(spec, engine_options(sim, dt))
     log.info("drum DEM: %d balls, dt = %.3g s (%.0f %% of Rayleigh), %s neighbour search, %s steps",
              spec.n_particles, dt, 100 * dt / spec.rayleigh_timestep_s(), "grid" if engine.use_grid else "all-pairs",
              "serial" if engine.serial else "parallel")
-    key = dem_key(drum, materials, interactions, sim)
     checkpoint = Checkpoint(out_dir / "checkpoint.pkl", sim.checkpoint_every_s, key) if sim.checkpoint_every_s else None
     after = sim.settle_s + sim.steady_after_s
     end = sim.settle_s + sim.duration_s
-    recorder = Recorder(engine, sim.trajectory_every, snapshot_times_s=np.linspace(after, end, BED_SNAPSHOTS + 1)[1:],
-                        writers=(VtkWriter(out_dir, sim.vtk_every),) if sim.vtk_every else ())
+    sinks = (ParquetSink(out_dir), *((VtkWriter(out_dir, sim.vtk_every),) if sim.vtk_every else ()))
+    recorder = Recorder(engine, sim.trajectory_every, np.linspace(after, end, BED_SNAPSHOTS + 1)[1:], sinks)
     results = engine.run(end, sim.sample_every_s, recorder, label="drum", checkpoint=checkpoint,
                          phases=((0.0, "settle"), (sim.settle_s, "rotate"), (after, "average")))
-    results.write(out_dir)
     power, power_se = results.mean_power_w("drum", after)
     power_roll, _ = results.mean_power_w("drum", after, rolling=True)
     loads = results.loads[results.loads.t_s > after]
+    if not math.isfinite(power):
+        raise SimulationError(f"drum DEM: the mean power is {power} ({len(loads)} samples after {after:g} s, "
+                              f"dt {dt:.3g} s = {dt / spec.rayleigh_timestep_s():.0%} of Rayleigh); "
+                              "lengthen sim.duration_s beyond sim.steady_after_s or shorten the time step")
     summary = {
         "key": key,
         "balls": spec.n_particles, "speed_rpm": drum_speed_rpm(drum),
@@ -191,7 +192,7 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
         "simulated_s": engine.time_s, "averaging_from_s": after,
         **impact_statistics(results.collisions, after, engine.time_s, float(engine.p.mass_np.sum())),
     }
-    summary_path.write_text(json.dumps(summary, indent=2))
+    write_json(summary_path, summary)  # last: its presence marks a finished cache entry
     if checkpoint:
         checkpoint.remove()
-    return summary
+    return DrumRun(summary, results)

@@ -1,7 +1,7 @@
 """The Retsch MM400 vibratory mill: a capsule jar swinging on a short arc, 1-2 steel balls.
 
 Many conditions (frequency x ball size x wall restitution x wall friction) run as replicas of
-one Taichi system.  Statistics follow the paper's video analysis: ball speed is the
+one Taichi system; tables use the vocabulary of columns.py.  Statistics follow the paper's video analysis: ball speed is the
 displacement between consecutive camera frames (2134 fps) in the camera's view (x along the
 jar axis, z up), beside the true instantaneous speed; a collision in the video is a run of
 frames where the velocity jumps by more than a threshold, counted the same way on tracked data.
@@ -16,9 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .columns import add_frame_velocities
 from .config import ConfigError, InteractionConfig, MM400Config, SimConfig
 from .dem import Body, Capsule, Engine, Interaction, Motion, Recorder, SystemSpec, init_taichi
-from .drum import build_materials, engine_options
+from .scenario import engine_materials, engine_options, time_step_s
 
 JAR_AXIS = (1.0, 0.0, 0.0)  # the jar lies horizontally along x; it swings about a vertical axis
 
@@ -102,44 +103,33 @@ def mm400_system(cfg: MM400Config, conds: list[Condition], materials, interactio
     )
 
 
+def mm400_spec(cfg: MM400Config, conds: list[Condition], materials, interactions: dict[str, InteractionConfig],
+               sim: SimConfig) -> SystemSpec:
+    """The engine's system for these conditions (checks materials and that the balls fit)."""
+    mats, pairs = engine_materials(materials, interactions, sim.shear_modulus_scale, cfg.ball_material,
+                                   cfg.wall_material)
+    return mm400_system(cfg, conds, mats, pairs, sim.seed)
+
+
 def simulate_mm400(cfg: MM400Config, conds: list[Condition], materials, interactions: dict[str, InteractionConfig],
                    sim: SimConfig):
     """Run every condition for cfg.duration_s, sampling at the camera rate: (trajectories, collisions)."""
-    for name in (cfg.ball_material, cfg.wall_material):
-        if name not in materials:
-            raise ConfigError(f"lab: unknown material {name!r}; known: {sorted(materials)}")
-    mats, pairs = build_materials(materials, interactions, sim.shear_modulus_scale)
-    spec = mm400_system(cfg, conds, mats, pairs, sim.seed)
+    spec = mm400_spec(cfg, conds, materials, interactions, sim)
     frame = 1.0 / cfg.camera_fps
-    dt_max = sim.dt_s or sim.dt_fraction * spec.rayleigh_timestep_s()
-    dt = frame / math.ceil(frame / dt_max)  # a whole number of steps per camera frame
+    dt = frame / math.ceil(frame / time_step_s(spec, sim))  # a whole number of steps per camera frame
     init_taichi(sim.arch, sim.precision, sim.threads, sim.seed)
     engine = Engine(spec, engine_options(sim, dt))
     res = engine.run(cfg.duration_s, frame, Recorder(engine, trajectory_every=1), label="mm400")
     return res.trajectories, res.collisions
 
 
-def frame_speeds(track: pd.DataFrame, fps: float) -> pd.DataFrame:
-    """Per ball, camera-plane velocity from consecutive frames: columns vx, vz, speed (m/s), jump.
-
-    `track` has t_s, replica, particle, x_m, z_m (the camera's view); `jump` is the change of
-    velocity from one frame to the next (m/s), NaN where a frame is missing (a lost ball).
-    """
-    track = track.sort_values(["replica", "particle", "t_s"])
-    out = []
-    for _, g in track.groupby(["replica", "particle"], sort=True):
-        vx, vz = np.diff(g.x_m.to_numpy()) * fps, np.diff(g.z_m.to_numpy()) * fps
-        jump = np.r_[np.hypot(np.diff(vx), np.diff(vz)), np.nan]
-        out.append(g.iloc[1:].assign(vx=vx, vz=vz, speed=np.hypot(vx, vz), jump=jump))
-    return pd.concat(out, ignore_index=True)
-
-
 def video_collisions(speeds: pd.DataFrame, threshold_m_per_s: float) -> int:
     """Collisions seen in a video: runs of consecutive frames whose velocity jumps by more than
-    the threshold (a collision between two frames spreads over two differences), per ball."""
+    the threshold (a collision between two frames spreads over two differences), per ball;
+    `speeds` has the frame_* columns of columns.add_frame_velocities."""
     hits = 0
-    for _, g in speeds.groupby(["replica", "particle"], sort=False):
-        above = (g.jump.to_numpy() > threshold_m_per_s).astype(int)
+    for _, g in speeds.groupby([k for k in ("replica", "particle") if k in speeds], sort=False):
+        above = (g.frame_jump_m_per_s.to_numpy() > threshold_m_per_s).astype(int)
         hits += int((np.diff(np.r_[0, above]) == 1).sum())
     return hits
 
@@ -148,7 +138,7 @@ def summarise(track: pd.DataFrame, collisions: pd.DataFrame, cfg: MM400Config, c
     """One row per condition: frame-to-frame speed (mean, 10/50/90th percentiles), mean true speed,
     collision rates, impact speed and energy."""
     track = track[track.t_s > cfg.settle_s]
-    fs = frame_speeds(track, cfg.camera_fps)
+    fs = add_frame_velocities(track, cfg.camera_fps)
     span = track.t_s.max() - track.t_s.min()
     rows = []
     for k, c in enumerate(conds):
@@ -156,9 +146,10 @@ def summarise(track: pd.DataFrame, collisions: pd.DataFrame, cfg: MM400Config, c
         col = collisions[(collisions.replica == k) & (collisions.t_start_s > cfg.settle_s)] if len(collisions) else collisions
         rows.append({
             **c.__dict__, "replica": k,
-            "mean_speed_m_per_s": float(g.speed.mean()),
-            **{f"speed_p{q}_m_per_s": float(g.speed.quantile(q / 100)) for q in (10, 50, 90)},
-            "mean_true_speed_m_per_s": float(np.sqrt(g.vx_m_per_s**2 + g.vy_m_per_s**2 + g.vz_m_per_s**2).mean()),
+            "mean_speed_m_per_s": float(g.frame_speed_m_per_s.mean()),
+            **{f"speed_p{q}_m_per_s": float(g.frame_speed_m_per_s.quantile(q / 100)) for q in (10, 50, 90)},
+            "mean_true_speed_m_per_s": float(np.sqrt(g.vx_m_per_s**2 + g.vy_m_per_s**2 + g.vz_m_per_s**2)
+                                             [g.frame_speed_m_per_s.notna()].mean()),
             "video_collisions_per_s": video_collisions(g, cfg.collision_speed_jump_m_per_s) / span,
             "ball_wall_collisions_per_s": float((col.kind == "ball-wall").sum() / span) if len(col) else 0.0,
             "ball_ball_collisions_per_s": float((col.kind == "ball-ball").sum() / span) if len(col) else 0.0,

@@ -150,3 +150,7 @@ def plot_bed(trajectories: pd.DataFrame, radius_m: float, drum_radius_m: float):
     fig.colorbar(balls, ax=axes[0].tolist(), label="ball speed (m/s)", shrink=0.8)
     fig.suptitle("Charge seen along the drum axis")
     return fig
+
+
+# Figures a study's report may name (study.report.figure): each draws one from the sweep's records.
+FIGURES = {"fig3b": plot_fig3b, "fig4": plot_fig4}

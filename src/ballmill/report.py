@@ -6,7 +6,6 @@ exist and lists the failed jobs.
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
@@ -14,26 +13,35 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
+from omegaconf import OmegaConf
 
-from .config import MM400_GEOMETRY
-from .data import DATA_DIR, table
+from .config import MM400_GEOMETRY, ConfigError, StudyConfig, StudyReport, one_line, to_object
+from .data import table
+from .files import read_json
 from .impacts import energy_spectrum
-from .plots import plot_fig3b, plot_fig4, plot_impact_spectra, plot_lab_validation, save_figure
+from .plots import FIGURES, plot_impact_spectra, plot_lab_validation, save_figure
 
-FIGURES = {"fig3b": plot_fig3b, "fig4": plot_fig4}
 SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv"]
 
 
 def collect(sweep_dir: Path) -> pd.DataFrame:
     """One row per job folder holding a record.json (failed jobs included)."""
+    if not sweep_dir.is_dir():
+        raise FileNotFoundError(f"sweeps: {sweep_dir} is not a folder; give a sweep folder of `ballmill run -m`")
     rows = []
     for path in sorted(sweep_dir.glob("*/record.json")):
-        rec = json.loads(path.read_text())
+        rec = read_json(path)
+        if rec is None or "status" not in rec:  # interrupted or corrupted: the job reruns on resume
+            rec = {"study": "?", "status": "failed", "error": f"{path.name} unreadable: rerun the sweep to redo it"}
         rec["job_dir"] = str(path.parent)
         rows.append(rec)
     if not rows:
-        raise FileNotFoundError(f"no */record.json under {sweep_dir}: is it a sweep folder of `ballmill run -m`?")
-    return pd.DataFrame(rows)
+        raise FileNotFoundError(f"sweeps: no */record.json under {sweep_dir}; is it a sweep folder of `ballmill run -m`?")
+    df = pd.DataFrame(rows)
+    known = df[df.study != "?"]
+    if len(known):
+        df["study"] = known.study.iloc[0]
+    return df
 
 
 def provenance() -> dict:
@@ -55,40 +63,40 @@ def write_table(df: pd.DataFrame, stem: Path) -> None:
     stem.with_suffix(".provenance.json").write_text(json.dumps(provenance(), indent=2))
 
 
-def paper_comparison(name: str, ok: pd.DataFrame) -> list[str]:
-    paper = pd.read_csv(DATA_DIR / "paper2023_reported.csv").set_index("quantity")["value"]
-    lines = ["| quantity | paper | ours |", "|---|---|---|"]
+def paper_comparison(name: str, ok: pd.DataFrame, spec: StudyReport) -> list[str]:
+    """The paper's reported numbers of case `spec.compare` (data/paper2023_reported.csv) beside ours."""
+    if not spec.compare:
+        return []
+    rows = table("paper2023_reported.csv")
+    lines = ["## Against the paper", "", "| quantity | paper | ours |", "|---|---|---|"]
+    for r in rows[rows.case.isin([spec.compare, "both"])].itertuples():
+        hit = ok[(ok.bpr - r.at_bpr).abs() < 1e-9] if pd.notna(r.at_bpr) else ok
+        ours = f"{hit[r.column].iloc[0]:,.{int(r.digits)}f}" if len(hit) and r.column in hit else "n/a"
+        lines.append(f"| {r.label} | {r.value:,.{int(r.digits)}f} | {ours} |")
+    return [*lines, ""]
 
-    def at_bpr(b, col):
-        hit = ok[(ok.bpr - b).abs() < 1e-9]
-        return f"{hit[col].iloc[0]:.2f}" if len(hit) else "n/a"
 
-    if name == "fig3b":
-        lines += [
-            (f"| purchase cost, 1000 kg/h ($) | {paper['purchase_cost_1000_kg_per_h']:,.0f} | "
-            f"{ok.purchase_cost_usd.iloc[0]:,.0f} |"),
-            f"| yield at BPR 19 (%) | {paper['yield_bpr_19']} | {at_bpr(19, 'yield_percent')} |",
-            (f"| electricity at BPR 19 ($/t PET) | {paper['electricity_bpr_19']} | "
-            f"{at_bpr(19, 'electricity_usd_per_t_pet')} |"),
-            (f"| electricity at BPR 22.9 ($/t PET) | {paper['electricity_bpr_22.9']} | "
-            f"{at_bpr(22.9, 'electricity_usd_per_t_pet')} |"),
-        ]
-    if name == "shape_rule":
-        lines = [("| shape rule | L/D | D at BPR 19 (m) | % of critical | $/t PET at BPR 19 (paper 1.62) | "
-                 "at BPR 22.9 (paper 2.16) |"), "|---|---|---|---|---|---|"]
-        ok = ok.assign(ld=np.where(ok.shape_rule == "length_to_diameter", (ok.length_m / ok.diameter_m).round(2), np.nan))
-        for (rule, ld), g in ok.groupby(["shape_rule", "ld"], dropna=False):
-            g = g.drop_duplicates("bpr")  # the L/D column does not enter the other rule
-            g = g.set_index(g.bpr.round(1))
-            lines.append(f"| {rule} | {'-' if np.isnan(ld) else f'{ld:g}'} | {g.diameter_m.get(19.0, np.nan):.2f} | "
-                         f"{100 * g.fraction_of_critical.get(19.0, np.nan):.0f} | "
-                         f"{g.electricity_usd_per_t_pet.get(19.0, np.nan):.2f} | "
-                         f"{g.electricity_usd_per_t_pet.get(22.9, np.nan):.2f} |")
-        return lines
-    if name == "fig4":
-        lines.append(f"| yield at BPR 20 (%) | {paper['yield_bpr_20']} | {ok.yield_percent.iloc[0]:.1f} |")
-    lines.append(f"| margin ($/t TPA) | {paper['margin']} | {ok.margin_usd_per_t_tpa.iloc[0]:.0f} |")
-    return lines
+def shape_rule_table(name: str, ok: pd.DataFrame, spec: StudyReport) -> list[str]:
+    """Mill diameter, speed and electricity at BPR 19 and 22.9 for each shape rule, beside the paper's."""
+    paper = table("paper2023_reported.csv").set_index("quantity")["value"]
+    lines = ["## Shape rules", "", (f"| shape rule | L/D | D at BPR 19 (m) | % of critical | $/t PET at BPR 19 (paper "
+                                    f"{paper['electricity_bpr_19']:g}) | at BPR 22.9 (paper "
+                                    f"{paper['electricity_bpr_22.9']:g}) |"), "|---|---|---|---|---|---|"]
+    ok = ok.assign(ld=np.where(ok.shape_rule == "length_to_diameter", (ok.length_m / ok.diameter_m).round(2), np.nan))
+    for (rule, ld), g in ok.groupby(["shape_rule", "ld"], dropna=False):
+        g = g.drop_duplicates("bpr")  # the L/D column does not enter the other rule
+        g = g.set_index(g.bpr.round(1))
+        lines.append(f"| {rule} | {'-' if np.isnan(ld) else f'{ld:g}'} | {g.diameter_m.get(19.0, np.nan):.2f} | "
+                     f"{100 * g.fraction_of_critical.get(19.0, np.nan):.0f} | "
+                     f"{g.electricity_usd_per_t_pet.get(19.0, np.nan):.2f} | "
+                     f"{g.electricity_usd_per_t_pet.get(22.9, np.nan):.2f} |")
+    return [*lines, ""]
+
+
+def design_table(name: str, ok: pd.DataFrame, spec: StudyReport) -> list[str]:
+    """The headline columns of every finished job."""
+    cols = [c for c in COLUMNS if c in ok.columns]
+    return [ok[cols].to_markdown(index=False, floatfmt=".4g"), ""] if cols else []
 
 
 COLUMNS = ["bpr", "region", "shape_rule", "pet_feed_kg_per_h", "naoh_feed_kg_per_h", "diameter_m", "length_m",
@@ -107,7 +115,7 @@ def case_label(rec) -> str:
     return Path(rec["job_dir"]).name
 
 
-def impact_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
+def impact_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
     """The spectra figure (one curve per case) and the impact statistics of each case."""
     spectra = []
     for rec in ok.to_dict("records"):
@@ -126,7 +134,7 @@ def impact_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
                 index=False, floatfmt=".4g"), ""]
 
 
-def lab_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
+def lab_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
     """MM400 runs: their summaries in one table, the speed-vs-frequency figure, speed per swept geometry."""
     sim = pd.concat([pd.read_csv(Path(d) / "lab_summary.csv").assign(job_dir=d) for d in ok.job_dir],
                     ignore_index=True)
@@ -148,36 +156,43 @@ def lab_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
     return lines
 
 
+# The parts a study's report may name (study.report.sections), in the order it lists them.
+SECTIONS = {
+    "design_table": lambda name, ok, spec, out: design_table(name, ok, spec),
+    "paper_comparison": lambda name, ok, spec, out: paper_comparison(name, ok, spec),
+    "shape_rule": lambda name, ok, spec, out: shape_rule_table(name, ok, spec),
+    "impacts": impact_lines,
+    "lab": lab_lines,
+}
+
+
+def study_report(df: pd.DataFrame) -> StudyReport:
+    """The report spec of the sweep's study, from the resolved config of its first job."""
+    path = Path(df.job_dir.iloc[0]) / "config_resolved.yaml"
+    try:
+        study = OmegaConf.load(path).study
+    except Exception as exc:  # missing, truncated or not YAML
+        raise ConfigError(f"{path}: cannot read the study's config ({one_line(exc)}); run the sweep again") from exc
+    return to_object(study, StudyConfig, "study").report
+
+
 def report(sweep_dir: Path, out_dir: Path) -> Path:
+    """Tables (Parquet + CSV with provenance), figures and <study>.md for one sweep folder."""
     df = collect(sweep_dir)
     name = str(df.study.iloc[0])
-    out_dir.mkdir(parents=True, exist_ok=True)
-    write_table(df, out_dir / name)
     ok = df[df.status == "ok"]
     failed = df[df.status != "ok"]
+    spec = study_report(ok if len(ok) else df)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_table(df, out_dir / name)
     lines = [f"# {name}: {len(ok)} finished, {len(failed)} failed runs", "", f"Sweep folder: `{sweep_dir}`", ""]
-    if len(ok) and (ok.kind == "lab").all():
-        lines += lab_lines(name, ok, out_dir)
-    elif len(ok) and name in FIGURES:
-        save_figure(FIGURES[name](ok), out_dir / name)
+    if len(ok) and spec.figure:
+        save_figure(FIGURES[spec.figure](ok), out_dir / name)
         lines += [f"![{name}]({name}.png)", ""]
-    cols = [c for c in COLUMNS if c in ok.columns]
-    if len(ok) and cols:
-        lines += [ok[cols].to_markdown(index=False, floatfmt=".4g"), ""]
-        if "margin_usd_per_t_tpa" in ok:
-            lines += ["## Against the paper", ""] + paper_comparison(name, ok) + [""]
-        lines += impact_lines(name, ok, out_dir)
+    for section in spec.sections if len(ok) else ():
+        lines += SECTIONS[section](name, ok, spec, out_dir)
     for rec in failed.itertuples():
         lines.append(f"- FAILED `{rec.job_dir}`: {rec.error}")
     path = out_dir / f"{name}.md"
     path.write_text("\n".join(lines) + "\n")
     return path
-
-
-def main(argv: list[str]) -> None:
-    parser = argparse.ArgumentParser(prog="ballmill report", description=__doc__)
-    parser.add_argument("sweep_dirs", nargs="+", type=Path)
-    parser.add_argument("--out", type=Path, default=Path("outputs/report"))
-    args = parser.parse_args(argv)
-    for d in args.sweep_dirs:
-        print(report(d, args.out))

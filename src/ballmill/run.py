@@ -1,23 +1,19 @@
 """One scenario (a composed Hydra config) -> one record, written into the run's folder.
 
-A design run: feed -> scale-up -> DEM of the rotating mill -> power -> economics.
-A drum run: the configured drum -> torque and power over time.
-A lab run: the MM400 at every configured frequency and ball size -> lab_summary.csv.
-Failures are recorded (status, message) instead of raised, so a sweep carries on; a job
-whose folder already holds a finished record of the same resolved config is skipped, so a
-sweep can be resumed (and one rerun with, say, another sim reruns every job).
+The Hydra task function of `ballmill run`: it checks the scenario (studies.plan), executes the
+plan and writes record.json / record.parquet beside the resolved config.  A failure during the
+run is recorded (status, message, FAILED.json) so a sweep carries on; a job whose folder already
+holds a finished record of the same resolved config is skipped, so a sweep can be resumed (and
+one rerun with, say, another sim reruns every job).  Records are written whole or not at all.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import os
 import platform
-import shutil
 import subprocess
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import hydra
@@ -28,27 +24,14 @@ from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
 from . import __version__
-from .config import (
-    MM400_GEOMETRY,
-    ConfigError,
-    DrumConfig,
-    EconomicsConfig,
-    MM400Config,
-    ScaleupConfig,
-    SimConfig,
-    material_tables,
-    register,
-    to_object,
-)
-from .drum import dem_key, simulate_drum
-from .economics import bond_rowland_power_w, evaluate, yield_percent
-from .lab import conditions, simulate_mm400, summarise, wall_interaction
-from .plots import plot_bed, plot_drum_loads, save_figure
-from .scaleup import design_mill
+from .config import CONF_DIR
+from .files import read_json, write_json, write_text
+from .scenario import load
+from .studies import plan
 
-ROOT = Path(__file__).resolve().parents[2]
 log = logging.getLogger(__name__)
-register()
+RECORD, FAILED, RESOLVED = "record.json", "FAILED.json", "config_resolved.yaml"
+FAILED_JOBS: list[Path] = []  # folders of the jobs of this process that failed (read by the command line)
 
 
 def provenance(sim) -> dict:
@@ -57,7 +40,7 @@ def provenance(sim) -> dict:
     import taichi
 
     try:
-        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True,
+        commit = subprocess.run(["git", "-C", str(CONF_DIR), "rev-parse", "HEAD"], capture_output=True, text=True,
                                 timeout=10, check=False).stdout.strip()
     except OSError:
         commit = ""
@@ -69,79 +52,47 @@ def provenance(sim) -> dict:
 
 
 def run(cfg: DictConfig, out_dir: Path) -> dict:
-    """Validate everything first, then simulate; returns the record (no status fields)."""
-    sim = to_object(cfg.sim, SimConfig, "sim")
-    materials, pairs = material_tables(cfg)
-    drum = to_object(cfg.mill, DrumConfig, "mill")
-    kind = cfg.study.kind
-    if kind not in ("design", "drum", "lab"):
-        raise ConfigError(f"study.kind={kind!r} is not one of ['design', 'drum', 'lab']")
-    record: dict = {"study": cfg.study.name, "kind": kind}
-    if kind == "lab":
-        return record | run_lab(to_object(cfg.lab, MM400Config, "lab"), materials, pairs, sim, out_dir,
-                                cfg.study.get("observations"))
-    if kind == "design":
-        scale = to_object(cfg.scaleup, ScaleupConfig, "scaleup")
-        econ = to_object(cfg.economics, EconomicsConfig, "economics")
-        yield_percent(scale.bpr, econ)  # refuse an out-of-range BPR before the DEM
-        design = design_mill(scale)
-        drum = replace(drum, inner_diameter_m=design.diameter_m, inner_length_m=design.length_m,
-                       ball_radius_m=design.ball_radius_m, ball_count=design.ball_count, speed_rpm=design.speed_rpm)
-        record.update(bpr=scale.bpr, region=scale.region, shape_rule=scale.shape_rule, **design.as_record())
-    dem_dir = Path(cfg.cache_dir) / "dem" / dem_key(drum, materials, pairs, sim)
-    dem = simulate_drum(drum, materials, pairs, sim, dem_dir)
-    record.update({f"dem_{k}": v for k, v in dem.items()})
-    record["dem_dir"] = str(dem_dir)
-    loads = pd.read_parquet(dem_dir / "loads.parquet")
-    loads.to_csv(out_dir / "loads.csv", index=False)
-    save_figure(plot_drum_loads(loads, steady_after_s=sim.settle_s + sim.steady_after_s), out_dir / "drum_loads")
-    bed = pd.read_parquet(dem_dir / "trajectories.parquet")
-    if len(bed):
-        save_figure(plot_bed(bed, drum.ball_radius_m, drum.inner_diameter_m / 2), out_dir / "bed")
-    if kind == "design":
-        record.update(evaluate(dem["power_w"], scale.bpr, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, econ))
-        record["bond_rowland_power_w"] = bond_rowland_power_w(
-            design.diameter_m, design.ball_mass_kg, scale.fill_fraction, design.fraction_of_critical,
-            2 * design.ball_radius_m)
-    return record
-
-
-def run_lab(lab: MM400Config, materials, pairs, sim: SimConfig, out_dir: Path, observations: str | None) -> dict:
-    """MM400 at the configured ball-wall pair: one summary row per frequency x ball size."""
-    pair = wall_interaction(pairs, lab)
-    conds = conditions(lab, [pair.restitution], [pair.static_friction])
-    traj, collisions = simulate_mm400(lab, conds, materials, pairs, sim)
-    summary = summarise(traj, collisions, lab, conds).assign(
-        balls=lab.balls_per_jar, **{k: getattr(lab, k) for k in MM400_GEOMETRY})
-    summary.to_csv(out_dir / "lab_summary.csv", index=False)
-    return {"balls": lab.balls_per_jar, "wall_restitution": pair.restitution,
-            "wall_friction": pair.static_friction, "conditions": len(conds), "observations": observations}
+    """Check everything first (ConfigError), then simulate; returns the record (no status fields)."""
+    scenario = load(cfg)
+    p = plan(scenario)
+    return p.record | p.execute(out_dir)
 
 
 def write_record(record: dict, out_dir: Path) -> None:
-    (out_dir / "record.json").write_text(json.dumps(record, indent=2, default=str))
-    pd.DataFrame([record]).to_parquet(out_dir / "record.parquet", index=False)
+    """record.parquet first, record.json (the mark of a finished job) last, each written whole."""
+    tmp = out_dir / ".record.parquet.tmp"
+    pd.DataFrame([record]).to_parquet(tmp, index=False)
+    os.replace(tmp, out_dir / "record.parquet")
+    write_json(out_dir / RECORD, record)
 
 
 def finished(out_dir: Path, resolved: str) -> bool:
-    """True when out_dir holds a finished record of this very config (a changed config reruns)."""
-    path, config = out_dir / "record.json", out_dir / "config_resolved.yaml"
-    if not (path.exists() and json.loads(path.read_text()).get("status") == "ok"):
+    """True when out_dir holds a finished record of this very config (a changed or unreadable one reruns)."""
+    record = read_json(out_dir / RECORD)
+    if record is None:
+        if (out_dir / RECORD).exists():
+            log.warning("%s is unreadable (interrupted or corrupted): rerunning", out_dir / RECORD)
         return False
+    if record.get("status") != "ok":
+        return False
+    config = out_dir / RESOLVED
     if not config.exists() or config.read_text() != resolved:
         log.warning("%s holds a record of another config: rerunning", out_dir)
         return False
     return True
 
 
-@hydra.main(version_base="1.3", config_path=str(ROOT / "conf"), config_name="config")
-def main(cfg: DictConfig) -> None:
+@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
+def main(cfg: DictConfig) -> str:
+    """One job: returns its status ("ok", "skipped" or "failed")."""
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     resolved = OmegaConf.to_yaml(cfg, resolve=True)
     if finished(out_dir, resolved):
         log.info("%s already holds a finished record: skipped", out_dir)
-        return
-    (out_dir / "config_resolved.yaml").write_text(resolved)
+        log_sweep_progress()
+        return "skipped"
+    (out_dir / FAILED).unlink(missing_ok=True)
+    write_text(out_dir / RESOLVED, resolved)
     started = time.time()
     try:
         record = {**run(cfg, out_dir), "status": "ok", "error": ""}
@@ -152,8 +103,10 @@ def main(cfg: DictConfig) -> None:
                   overrides=" ".join(HydraConfig.get().overrides.task))
     write_record(record, out_dir)
     if record["status"] != "ok":
-        shutil.copy(out_dir / "record.json", out_dir / "FAILED.json")
+        write_json(out_dir / FAILED, record)
+        FAILED_JOBS.append(out_dir)
     log_sweep_progress()
+    return record["status"]
 
 
 def log_sweep_progress() -> None:
@@ -163,7 +116,7 @@ def log_sweep_progress() -> None:
     hc = HydraConfig.get()
     if hc.mode != RunMode.MULTIRUN:
         return
-    done = len(list(Path(hc.sweep.dir).glob("*/record.json")))
+    done = len(list(Path(hc.sweep.dir).glob(f"*/{RECORD}")))
     params = hc.sweeper.get("params") or {}
     total = 1
     for override in OverridesParser.create().parse_overrides([f"{k}={v}" for k, v in params.items()]):

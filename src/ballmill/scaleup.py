@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-from .config import ScaleupConfig
+from .config import ConfigError, ScaleupConfig
 from .data import lookup, table
 
 POUND_KG = 0.45359237
@@ -28,7 +28,7 @@ def regional_pet_feed_kg_per_h(region: str, napcor_quantity: str, hours_per_year
     """NAPCOR 2018 national PET (million lb/yr) x the region's share of the 2018 US population."""
     pop = table("population_2018.csv")
     if region not in set(pop.code):
-        raise ValueError(f"scaleup.region={region!r} is not one of {sorted(pop.code)}")
+        raise ConfigError(f"scaleup.region={region!r} is not one of {sorted(pop.code)}")
     share = lookup("population_2018.csv", "code", region, "population") / lookup(
         "population_2018.csv", "code", "US", "population")
     national_kg = lookup("napcor_2018.csv", "quantity", napcor_quantity, "value_million_lb") * 1e6 * POUND_KG

@@ -4,11 +4,11 @@ from .checkpoint import Checkpoint
 from .engine import Engine, EngineOptions, SimulationError
 from .geometry import Body, Capsule, Cylinder, Mesh, Motion, Plane
 from .materials import Interaction, Material
-from .results import Recorder, Results
+from .results import ParquetSink, Recorder, Results
 from .runtime import init_taichi
 from .system import SystemSpec
 
 __all__ = [
     "Body", "Capsule", "Checkpoint", "Cylinder", "Engine", "EngineOptions", "Interaction", "Material", "Mesh",
-    "Motion", "Plane", "Recorder", "Results", "SimulationError", "SystemSpec", "init_taichi",
+    "Motion", "ParquetSink", "Plane", "Recorder", "Results", "SimulationError", "SystemSpec", "init_taichi",
 ]

@@ -239,7 +239,7 @@ class Engine:
                          self.time_s, f"{phase} " if phase else "", s + 1, n_samples, rate)
                 last_log = now
         bar.close()
-        return recorder.results()
+        return recorder.finish()
 
     def _state_fields(self):
         for part in ("p", "mo", "nl", "walls", "book", "monitor"):

@@ -10,7 +10,6 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 
-import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
@@ -124,9 +123,3 @@ def damping_ratio_for_restitution(restitution: float) -> float:
         return 0.0
     return brentq(lambda z: achieved_restitution(z) - restitution, 0.0, 50.0, xtol=1e-12)
 
-
-def restitution_table(values=(0.2, 0.5, 0.8, 0.95)) -> np.ndarray:
-    """Rows (e requested, z exact, e achieved by EDEM's closed form) for documentation."""
-    return np.array(
-        [[e, damping_ratio_for_restitution(e), achieved_restitution(edem_damping_ratio(e))] for e in values]
-    )

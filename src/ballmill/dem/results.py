@@ -32,11 +32,10 @@ class Results:
     collisions: pd.DataFrame
     trajectories: pd.DataFrame
 
-    def write(self, folder: str | Path) -> None:
-        folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        for name in TABLES:
-            getattr(self, name).to_parquet(folder / f"{name}.parquet", index=False)
+    @classmethod
+    def read(cls, folder: str | Path) -> Results:
+        """The tables a ParquetSink wrote into folder."""
+        return cls(**{name: pd.read_parquet(Path(folder) / f"{name}.parquet") for name in TABLES})
 
     def mean_power_w(self, body: str, after_s: float = 0.0, rolling: bool = False, blocks: int = 10):
         """Mean power (W) delivered by `body` after `after_s`, with its standard error from
@@ -49,14 +48,30 @@ class Results:
         return float(p.mean()), float(means.std(ddof=1) / np.sqrt(blocks))
 
 
-class Recorder:
-    """Collects samples from an Engine; trajectories every `trajectory_every` samples (0: never)
-    and at the samples nearest to `snapshot_times_s`; `writers` get every sample too (e.g. VTK)."""
+class ParquetSink:
+    """Writes a run's tables as <table>.parquet into a folder when the run ends."""
 
-    def __init__(self, engine, trajectory_every: int = 0, snapshot_times_s=(), writers=()):
+    def __init__(self, folder: str | Path):
+        self.folder = Path(folder)
+
+    def sample(self, engine) -> None:
+        pass
+
+    def close(self, results: Results) -> None:
+        self.folder.mkdir(parents=True, exist_ok=True)
+        for name in TABLES:
+            getattr(results, name).to_parquet(self.folder / f"{name}.parquet", index=False)
+
+
+class Recorder:
+    """Collects samples from an Engine into Results (in memory); trajectories every
+    `trajectory_every` samples (0: never) and at the samples nearest to `snapshot_times_s`.
+    `sinks` (ParquetSink, dem.vtk.VtkWriter, ...) see every sample and the finished Results."""
+
+    def __init__(self, engine, trajectory_every: int = 0, snapshot_times_s=(), sinks=()):
         self.every = trajectory_every
         self.snapshots = sorted(snapshot_times_s)
-        self.writers = writers
+        self.sinks = sinks
         self.body_names = [b.name for b in engine.spec.bodies]
         self.n_samples = 0
         self.columns = {name: defaultdict(list) for name in TABLES}
@@ -94,8 +109,8 @@ class Recorder:
                 vx_m_per_s=v[:, 0], vy_m_per_s=v[:, 1], vz_m_per_s=v[:, 2],
                 wx_rad_per_s=w[:, 0], wy_rad_per_s=w[:, 1], wz_rad_per_s=w[:, 2],
             )
-        for writer in self.writers:
-            writer.sample(engine)
+        for sink in self.sinks:
+            sink.sample(engine)
         self.n_samples += 1
 
     def _collisions(self, engine) -> None:
@@ -128,16 +143,19 @@ class Recorder:
     def state(self) -> dict:
         return {"n_samples": self.n_samples, "snapshots": list(self.snapshots),
                 "columns": {k: dict(v) for k, v in self.columns.items()},
-                "writers": [vars(w).copy() for w in self.writers]}
+                "sinks": [vars(w).copy() for w in self.sinks]}
 
     def restore(self, state: dict) -> None:
         self.n_samples, self.snapshots = state["n_samples"], state["snapshots"]
         self.columns = {k: defaultdict(list, v) for k, v in state["columns"].items()}
-        for writer, saved in zip(self.writers, state["writers"]):
-            vars(writer).update(saved)
+        for sink, saved in zip(self.sinks, state["sinks"]):
+            vars(sink).update(saved)
 
-    def results(self) -> Results:
-        frames = {
+    def finish(self) -> Results:
+        """The run's tables, handed to every sink."""
+        results = Results(**{
             name: pd.DataFrame({k: np.concatenate(v) for k, v in cols.items()}) for name, cols in self.columns.items()
-        }
-        return Results(**frames)
+        })
+        for sink in self.sinks:
+            sink.close(results)
+        return results

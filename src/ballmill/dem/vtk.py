@@ -53,7 +53,7 @@ def tessellate(wall, half_extent_m: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 class VtkWriter:
-    """Writes `vtk/particles_NNNNN.vtu` and `vtk/walls_NNNNN.vtu` every `every` samples of a run
+    """A sink of a Recorder: writes `vtk/particles_NNNNN.vtu` and `vtk/walls_NNNNN.vtu` every `every` samples of a run
     into `folder`, and keeps `particles.pvd` and `walls.pvd` up to date."""
 
     def __init__(self, folder: str | Path, every: int):
@@ -74,6 +74,9 @@ class VtkWriter:
         self.frames.append((engine.time_s, *names))
         for j, series in enumerate(("particles", "walls")):
             write_pvd(self.folder / f"{series}.pvd", [(t, files[j]) for t, *files in self.frames])
+
+    def close(self, results) -> None:
+        pass
 
     @staticmethod
     def _particles(engine, path: Path) -> None:

@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from ..columns import world_to_image
 from ..config import MM400Config
 from ..dem import Capsule, Motion
 from ..lab import Condition, jar_capsule, jar_motion
@@ -39,8 +40,7 @@ class Camera:
 
     def to_px(self, x_m, z_m):
         """World (x, z) in m to image (column, row) in px; the world origin at the image centre."""
-        return (self.width_px / 2 + np.asarray(x_m) * 1e3 / self.mm_per_px,
-                self.height_px / 2 - np.asarray(z_m) * 1e3 / self.mm_per_px)
+        return world_to_image(x_m, z_m, self.width_px, self.height_px, self.mm_per_px)
 
 
 def _fixed(v: float) -> int:

@@ -27,7 +27,17 @@ import pandas as pd
 from scipy.ndimage import map_coordinates
 from scipy.optimize import linear_sum_assignment
 
+from ..columns import add_frame_velocities, image_to_world
 from .frames import read_frames, read_meta
+
+# Thresholds, each relative to the expected ball radius r (px) or to grey levels of the difference image:
+DOWNSAMPLE = 4  # the background closing runs on a frame this many times smaller (the background is smooth)
+BACKGROUND_DISC = 1.4  # closing disc diameter / ball diameter: wider than a ball, so the ball is removed
+MASK_LEVEL = 0.5  # foreground mask: above this share of the frame's strongest difference ...
+MASK_MIN_GREY = 10.0  # ... and above this many grey levels (noise is ~2)
+PEAK_MIN = 0.6  # a ball candidate's distance-transform peak reaches at least 0.6 r (a full disc reaches r)
+PEAK_EXCLUSION = 1.2  # a second candidate lies more than 1.2 r from the first (touching balls: 2 r)
+MIN_EDGE_POINTS = 8  # fewer valid ray crossings than this: no circle (the ball counts as lost)
 
 
 @dataclass(frozen=True)
@@ -62,8 +72,9 @@ def sample_frames(frames, n: int) -> list[np.ndarray]:
 def foreground(frame: np.ndarray, r_px: float, polarity: str) -> np.ndarray:
     """Black-hat (dark balls) or top-hat (bright balls) of a frame with a disc wider than a ball (float32)."""
     f = frame.astype(np.float32)
-    small = cv2.resize(f, (max(1, f.shape[1] // 4), max(1, f.shape[0] // 4)), interpolation=cv2.INTER_AREA)
-    k = int(2 * 1.4 * r_px / 4) | 1
+    small = cv2.resize(f, (max(1, f.shape[1] // DOWNSAMPLE), max(1, f.shape[0] // DOWNSAMPLE)),
+                       interpolation=cv2.INTER_AREA)
+    k = int(2 * BACKGROUND_DISC * r_px / DOWNSAMPLE) | 1
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
     bg = cv2.morphologyEx(small, cv2.MORPH_CLOSE if polarity == "dark" else cv2.MORPH_OPEN, disc)
     bg = cv2.resize(bg, (f.shape[1], f.shape[0]), interpolation=cv2.INTER_LINEAR)
@@ -80,7 +91,7 @@ def detect_polarity(sample: list[np.ndarray]) -> str:
 def candidates(diff: np.ndarray, r_px: float, n: int) -> list[np.ndarray]:
     """Up to n ball centres (x, y px) from distance-transform peaks of the foreground mask."""
     blur = cv2.GaussianBlur(diff, (0, 0), 1.5)
-    mask = (blur > max(float(blur.max()) * 0.5, 10.0)).astype(np.uint8)
+    mask = (blur > max(float(blur.max()) * MASK_LEVEL, MASK_MIN_GREY)).astype(np.uint8)
     k = max(3, int(r_px / 2) | 1)
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
     mask = cv2.morphologyEx(cv2.morphologyEx(mask, cv2.MORPH_CLOSE, disc), cv2.MORPH_OPEN, disc)
@@ -88,10 +99,10 @@ def candidates(diff: np.ndarray, r_px: float, n: int) -> list[np.ndarray]:
     found = []
     for _ in range(n):
         _, peak, _, (x, y) = cv2.minMaxLoc(dist)
-        if peak < 0.6 * r_px:
+        if peak < PEAK_MIN * r_px:
             break
         found.append(np.array([x, y], float))
-        cv2.circle(dist, (x, y), int(1.2 * r_px), 0, -1)
+        cv2.circle(dist, (x, y), int(PEAK_EXCLUSION * r_px), 0, -1)
     return found
 
 
@@ -121,8 +132,8 @@ def fit_circle(diff: np.ndarray, centre: np.ndarray, r_px: float, others: list[n
     j = np.argmax(prof < half, axis=1)  # first sample below half contrast
     rows = np.arange(len(d))
     p0, p1 = prof[rows, j - 1], prof[rows, j]
-    valid = (j > 0) & (p1 < half[:, 0]) & (p0 >= half[:, 0]) & (inside > 10)
-    if valid.sum() < 8:
+    valid = (j > 0) & (p1 < half[:, 0]) & (p0 >= half[:, 0]) & (inside > MASK_MIN_GREY)
+    if valid.sum() < MIN_EDGE_POINTS:
         return centre, float("nan")
     d, j, p0, p1, half = d[valid], j[valid], p0[valid], p1[valid], half[valid, 0]
     rr = radii[j - 1] + (p0 - half) / (p0 - p1) * (radii[1] - radii[0])
@@ -130,7 +141,7 @@ def fit_circle(diff: np.ndarray, centre: np.ndarray, r_px: float, others: list[n
     c, r = _circle(pts)
     for _ in range(3):
         keep = np.abs(np.linalg.norm(pts - c, axis=1) - r) < settings.outlier_px
-        if keep.sum() < 8 or keep.all():
+        if keep.sum() < MIN_EDGE_POINTS or keep.all():
             break
         pts = pts[keep]
         c, r = _circle(pts)
@@ -155,11 +166,10 @@ def _assign(fitted: list, last: list, gate_px: float) -> dict[int, int]:
 
 def track(path: str | Path, settings: TrackerSettings, fps: float | None = None,
           mm_per_px: float | None = None) -> pd.DataFrame:
-    """Table of frame, time_s, ball, u_px, v_px, x_mm, y_mm (y up), radius_mm, vx/vy/speed (mm/s), lost.
-
-    The velocity of frame k is the displacement from frame k-1 times the capture rate, as the
-    paper measured it; frames where a ball was not found have lost=True and NaN positions.
-    """
+    """Per frame and ball: frame, t_s, particle, u_px, v_px, radius_px, lost, x_m, z_m, radius_m and
+    the frame_* velocities (columns.py).  The velocity of frame k is the displacement from frame
+    k-1 times the capture rate, as the paper measured it; frames where a ball was not found have
+    lost=True and NaN positions."""
     meta = read_meta(path)
     fps = fps or meta.get("capture_fps")
     mm_per_px = mm_per_px or meta.get("mm_per_px")
@@ -184,14 +194,21 @@ def track(path: str | Path, settings: TrackerSettings, fps: float | None = None,
                 rows.append((k, b, u, v, radius, False))
             else:
                 rows.append((k, b, np.nan, np.nan, np.nan, True))
-    df = pd.DataFrame(rows, columns=["frame", "ball", "u_px", "v_px", "radius_px", "lost"])
-    df.insert(1, "time_s", df.frame / fps)
-    df["x_mm"] = df.u_px * mm_per_px
-    df["y_mm"] = (frame.shape[0] - df.v_px) * mm_per_px
-    df["radius_mm"] = df.radius_px * mm_per_px
-    df = df.sort_values(["ball", "frame"])
-    step = df.groupby("ball")[["x_mm", "y_mm"]].diff()
-    df["vx_mm_per_s"], df["vy_mm_per_s"] = step.x_mm * fps, step.y_mm * fps
-    df["speed_mm_per_s"] = np.hypot(df.vx_mm_per_s, df.vy_mm_per_s)
+    df = pd.DataFrame(rows, columns=["frame", "particle", "u_px", "v_px", "radius_px", "lost"])
+    df.insert(1, "t_s", df.frame / fps)
+    height, width = frame.shape[:2]
+    df["x_m"], df["z_m"] = image_to_world(df.u_px, df.v_px, width, height, mm_per_px)
+    df["radius_m"] = df.radius_px * mm_per_px / 1e3
+    df = add_frame_velocities(df, fps)
     df.attrs.update(capture_fps=fps, mm_per_px=mm_per_px, polarity=polarity)
-    return df.sort_values(["frame", "ball"]).reset_index(drop=True)
+    return df.sort_values(["frame", "particle"]).reset_index(drop=True)
+
+
+def track_to_files(opts) -> tuple[pd.DataFrame, Path]:
+    """`ballmill track`: track opts.video (a config.TrackConfig) into <out>.csv and <out>.parquet."""
+    table = track(opts.video, TrackerSettings(opts.balls, opts.ball_diameter_mm, opts.polarity), opts.fps,
+                  opts.mm_per_px)
+    out = Path(opts.out or f"{str(opts.video).rstrip('/')}.track.csv")
+    table.to_csv(out, index=False)
+    table.to_parquet(out.with_suffix(".parquet"), index=False)
+    return table, out

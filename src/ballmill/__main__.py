@@ -1,0 +1,5 @@
+"""`python -m ballmill` is the `ballmill` command."""
+
+from .cli import main
+
+main()

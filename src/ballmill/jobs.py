@@ -1,0 +1,59 @@
+"""The jobs of a run or sweep, expanded from the overrides and the sweep file and each checked
+(composed, range-checked, planned: nothing simulated) before Hydra launches any of them."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import HydraException
+from hydra.types import RunMode
+
+from .config import ConfigError, one_line
+from .scenario import compose, load
+from .studies import plan
+
+
+def parse(overrides: list[str]):
+    try:
+        return OverridesParser.create().parse_overrides(overrides)
+    except HydraException as exc:
+        raise ConfigError(one_line(exc)) from exc
+
+
+def expand(overrides: list[str], multirun: bool) -> tuple[list[list[str]], Path | None]:
+    """Every job's overrides (the command line's sweeps and the sweep file's parameters, as
+    Hydra's basic sweeper combines them), and the sweep folder (None for a single run)."""
+    parsed = parse(overrides)
+    fixed = [o.input_line for o in parsed if not o.is_sweep_override()]
+    swept = {o.key_or_group: [f"{o.get_key_element()}={v}" for v in o.sweep_string_iterator()]
+             for o in parsed if o.is_sweep_override()}
+    cfg = compose("config", fixed, hydra=True)
+    multirun = multirun or cfg.hydra.mode == RunMode.MULTIRUN
+    if swept and not multirun:
+        raise ConfigError(f"{', '.join(swept)}: several values need a sweep: add -m")
+    if not multirun:
+        return [fixed], None
+    for o in parse([f"{k}={v}" for k, v in (cfg.hydra.sweeper.get("params") or {}).items()]):
+        if o.key_or_group not in swept:
+            values = o.sweep_string_iterator() if o.is_sweep_override() else [o.value()]
+            swept[o.key_or_group] = [f"{o.get_key_element()}={v}" for v in values]
+    return [fixed + list(combo) for combo in itertools.product(*swept.values())], Path(cfg.hydra.sweep.dir)
+
+
+def check_jobs(overrides: list[str], multirun: bool) -> Path | None:
+    """Refuse the whole run (ConfigError naming the job) if any job's config is bad; the sweep folder."""
+    jobs, sweep_dir = expand(overrides, multirun)
+    for job in jobs:
+        try:
+            plan(load(compose("config", job)))
+        except ConfigError as exc:
+            own = [o for o in job if o not in overrides]
+            raise ConfigError(f"{exc}{f' (job {chr(32).join(own)})' if own else ''}") from exc
+    return sweep_dir
+
+
+def failed_since(sweep_dir: Path, started_s: float) -> list[Path]:
+    """Job folders of the sweep whose failure was recorded after started_s (time.time())."""
+    return sorted(p.parent for p in sweep_dir.glob("*/FAILED.json") if p.stat().st_mtime >= started_s - 1)
