@@ -9,8 +9,10 @@ floating-point path can differ between CPUs, so it must match within 15 %.
 import json
 import os
 import re
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -108,3 +110,28 @@ def test_a_bad_value_in_any_job_refuses_the_whole_sweep_before_it_starts(tmp_pat
         "error: scaleup.bpr=30.0 is outside the yield fit's range [10.0, 23.0]; "
         "set economics.allow_yield_extrapolation=true to extrapolate (job scaleup.bpr=30)")
     assert not list(tmp_path.iterdir())
+
+
+def test_an_interrupted_sweep_resumes_with_exactly_its_unfinished_jobs(tmp_path):
+    """Ctrl-C (SIGINT to the sweep's process group) mid-sweep leaves only whole records; running
+    the same command again skips the finished jobs and runs the rest."""
+    args = [sys.executable, "-c", "from ballmill.cli import main; main()", "run", "+sweep=fig3b", "sim=ci",
+            "sim.settle_s=0.1", "sim.duration_s=0.4", "sim.steady_after_s=0.1", f"hydra.sweep.dir={tmp_path / 's'}",
+            f"cache_dir={tmp_path / 'cache'}"]
+    proc = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    deadline = time.time() + 600
+    while not list((tmp_path / "s").glob("*/record.json")) and time.time() < deadline:
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGINT)
+    assert proc.wait(timeout=120) != 0
+    finished = {p.parent.name for p in (tmp_path / "s").glob("*/record.json")}
+    assert 1 <= len(finished) < 7
+    for name in finished:  # whole records only
+        assert json.loads((tmp_path / "s" / name / "record.json").read_text())["status"] == "ok"
+    again = subprocess.run(args, cwd=tmp_path, capture_output=True, text=True, timeout=900, check=False)
+    assert again.returncode == 0, again.stderr[-3000:]
+    log = again.stdout + again.stderr
+    assert log.count("skipped") == len(finished)
+    records = [json.loads(p.read_text()) for p in (tmp_path / "s").glob("*/record.json")]
+    assert len(records) == 7 and all(r["status"] == "ok" for r in records)

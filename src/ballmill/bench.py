@@ -20,7 +20,7 @@ from dataclasses import asdict, replace
 
 import numpy as np
 
-from .config import BenchConfig, DrumConfig, InteractionConfig, MaterialConfig, SimConfig
+from .config import BenchConfig, ConfigError, DrumConfig, InteractionConfig, MaterialConfig, SimConfig
 from .dem import Engine, init_taichi
 from .drum import ball_count, drum_spec
 from .files import write_json
@@ -89,6 +89,9 @@ def bench_lab(threads: int, duration_s: float) -> dict:
 
 def main(opts: BenchConfig) -> None:
     """Run the cases of `ballmill bench`, print a table and write opts.json."""
+    for case in opts.cases:
+        if case != "bpr19" and not (case.isdigit() and int(case) >= 2):
+            raise ConfigError(f"cases: {case!r} is neither a ball count (an integer >= 2) nor bpr19")
     if opts.lab:
         rows = [bench_lab(opts.threads, opts.lab_duration_s)]
     else:

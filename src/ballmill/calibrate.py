@@ -22,24 +22,42 @@ import numpy as np
 import pandas as pd
 
 from .columns import add_frame_velocities
-from .config import CalibrationConfig, ConfigError, InteractionConfig, MM400Config, SimConfig
+from .config import CalibrationConfig, ConfigError, InteractionConfig, MM400Config, SimConfig, one_line
 from .lab import Condition, simulate_mm400, summarise, video_collisions
 from .vision.track import TrackerSettings, track
 
 log = logging.getLogger(__name__)
 MANIFEST = "videos.csv"
 KEYS = ["balls", "frequency_hz", "ball_diameter_m"]
+TRACK_COLUMNS = {"t_s", "frame", "particle", "x_m", "z_m", "lost"}
 
 
 def read_manifest(folder: str | Path) -> pd.DataFrame:
+    """The manifest, checked: its columns, numbers where numbers belong, and every video present."""
     folder = Path(folder)
     path = folder / MANIFEST
-    if not path.exists():
+    if not path.is_file():
         raise FileNotFoundError(f"videos={folder}: no {MANIFEST} (columns file, frequency_hz, ball_diameter_mm, balls)")
-    df = pd.read_csv(path)
+    try:
+        df = pd.read_csv(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: not a readable CSV ({one_line(exc)})") from exc
     missing = {"file", "frequency_hz", "ball_diameter_mm", "balls"} - set(df.columns)
     if missing:
         raise ConfigError(f"{path}: missing columns {sorted(missing)}")
+    if df.empty:
+        raise ConfigError(f"{path}: lists no videos")
+    for col in ("frequency_hz", "ball_diameter_mm", "balls", "fps", "mm_per_px"):
+        if col in df:
+            values = pd.to_numeric(df[col], errors="coerce")
+            bad = df[col][~(values > 0) & (df[col].notna() if col in ("fps", "mm_per_px") else True)]
+            if len(bad):
+                raise ConfigError(f"{path}: column {col} holds {bad.iloc[0]!r}; give positive numbers")
+    if not set(df.balls.astype(int)) <= {1, 2}:
+        raise ConfigError(f"{path}: column balls must be 1 or 2")
+    absent = [f for f in df.file if not (folder / str(f)).exists()]
+    if absent:
+        raise FileNotFoundError(f"{path}: names videos that are not in {folder}: {absent}")
     return df
 
 
@@ -62,9 +80,8 @@ def observations(folder: str | Path, lab: MM400Config) -> pd.DataFrame:
         cached = video.with_name(video.name + ".track.csv")
         fps, mm_per_px = (None if pd.isna(x) else float(x) for x in (getattr(v, "fps", None),
                                                                       getattr(v, "mm_per_px", None)))
-        if cached.exists():
-            table = pd.read_csv(cached)
-        else:
+        table = pd.read_csv(cached) if cached.exists() else None
+        if table is None or not TRACK_COLUMNS <= set(table.columns):  # none yet, or of an older tracker
             log.info("tracking %s", video)
             table = track(video, TrackerSettings(balls=int(v.balls), ball_diameter_mm=float(v.ball_diameter_mm)),
                           fps=fps, mm_per_px=mm_per_px)
@@ -140,9 +157,9 @@ def calibrate_to_files(opts: CalibrationConfig, s) -> dict:
     from .files import write_json
     from .plots import plot_lab_validation, plot_score_surface, save_figure
 
+    obs = observations(opts.videos, s.lab)  # checks the videos before anything is written
     out = Path(opts.out)
     out.mkdir(parents=True, exist_ok=True)
-    obs = observations(opts.videos, s.lab)
     obs.to_csv(out / "observations.csv", index=False)
     surface, simulated, best = calibrate(obs, s.lab, opts, s.materials, s.interactions, s.sim)
     surface.to_csv(out / "score_surface.csv", index=False)

@@ -92,7 +92,7 @@ class DrumConfig:
     fill_fraction: float = rng(0.3, 0.0, 1.0, lo_open=True, hi_open=True, doc="ball bed volume / mill volume")
     bed_porosity: float = rng(0.4, 0.0, 1.0, hi_open=True)
     ball_count: int | None = rng(None, 1, None, doc="overrides fill_fraction and bed_porosity")
-    speed_rpm: float | None = rng(None, 0.0, None, doc="explicit speed; else fraction_of_critical")
+    speed_rpm: float | None = rng(None, 0.0, None, lo_open=True, doc="explicit speed; else fraction_of_critical")
     fraction_of_critical: float = rng(0.7, 0.0, 1.5, lo_open=True)
     geometry: str = field(default="analytic", metadata={"choices": ("analytic", "stl")})
     stl_path: str | None = None
@@ -105,8 +105,9 @@ class DrumConfig:
 class ScaleupConfig:
     """Feed and charge to mill size (paper: 20 min, 30 % fill, 80 mm ball radius, 15 rpm)."""
 
-    pet_feed_kg_per_h: float = rng(1000.0, 0.0, None, lo_open=True)
-    region: str | None = field(default=None, metadata={"doc": "state code: feed = national PET x population share"})
+    pet_feed_kg_per_h: float | None = rng(1000.0, 0.0, None, lo_open=True, doc="PET feed; null when region is given")
+    region: str | None = field(default=None, metadata={
+        "doc": "state code: feed = national PET x population share (set pet_feed_kg_per_h=null)"})
     napcor_quantity: str = field(default="bottles_collected", metadata={
         "choices": ("bottles_collected", "bought_by_us_reclaimers", "available_for_recycling")})
     operating_hours_per_year: float = rng(7920.0, 0.0, 8784.0, lo_open=True)
@@ -166,6 +167,14 @@ class MM400Config:
     collision_speed_jump_m_per_s: float = rng(1.0, 0.0, None, lo_open=True,
                                               doc="frame-to-frame velocity change counted as a collision; "
                                                   "well above tracking noise (~0.2 m/s at 0.2 px)")
+
+    def __post_init__(self):
+        for name in ("frequencies_hz", "ball_diameters_m"):
+            values = getattr(self, name)
+            if not values:
+                raise ConfigError(f"lab.{name}=[] is empty: give at least one value")
+            for i, v in enumerate(values):
+                _check_field(f"lab.{name}[{i}]", v, {"range": (0.0, None, True, False)})
 
 
 # The MM400 fields no source pins down (estimates): lab runs report them beside their results.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from functools import cache
 from importlib.resources import files
 from pathlib import Path
@@ -28,4 +29,11 @@ def lookup(name: str, key_column: str, key, value_column: str) -> float:
     rows = df[df[key_column] == key]
     if rows.empty:
         raise ConfigError(f"{name}: no row with {key_column}={key!r}; have {df[key_column].tolist()}")
-    return float(rows.iloc[0][value_column])
+    try:
+        value = float(rows.iloc[0][value_column])
+    except (KeyError, ValueError, TypeError) as exc:
+        raise ConfigError(f"{DATA_DIR / name}: {value_column} of the row {key_column}={key!r} is not a number "
+                          f"({exc})") from exc
+    if not math.isfinite(value):
+        raise ConfigError(f"{DATA_DIR / name}: {value_column} of the row {key_column}={key!r} is {value}")
+    return value

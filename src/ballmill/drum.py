@@ -129,8 +129,32 @@ def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, 
 UNKEYED_SIM_FIELDS = ("threads", "neighbour_skin", "launch", "checkpoint_every_s", "progress_every_s")
 
 
+def check_stl(path: str) -> None:
+    """A readable, closed (watertight) triangle mesh, or a ConfigError naming mill.stl_path."""
+    import trimesh
+
+    if not Path(path).is_file():
+        raise ConfigError(f"mill.stl_path={path}: no such file")
+    try:
+        mesh = trimesh.load_mesh(path, file_type="stl", force="mesh")
+    except Exception as exc:  # trimesh raises many kinds on a file that is not an STL
+        raise ConfigError(f"mill.stl_path={path}: not a readable STL file ({type(exc).__name__})") from exc
+    if len(mesh.faces) == 0:
+        raise ConfigError(f"mill.stl_path={path}: holds no triangles")
+    if not mesh.is_watertight:
+        raise ConfigError(f"mill.stl_path={path}: the mesh is not closed ({len(mesh.faces)} triangles with open "
+                          "edges); balls would leak out: close it in the CAD tool")
+
+
 def drum_spec(drum: DrumConfig, materials, interactions, sim: SimConfig) -> SystemSpec:
-    """The engine's system for a drum config (checks materials and that the balls fit)."""
+    """The engine's system for a drum config (checks materials, the STL and that the balls fit)."""
+    d_ball = 2 * drum.ball_radius_m
+    if d_ball >= min(drum.inner_diameter_m, drum.inner_length_m) / 2:
+        raise ConfigError(f"mill.ball_radius_m={drum.ball_radius_m}: balls of {d_ball:g} m do not fit a drum of "
+                          f"D {drum.inner_diameter_m:g} m x L {drum.inner_length_m:g} m "
+                          "(at most a quarter of the smaller side)")
+    if drum.geometry == "stl" and drum.stl_path:
+        check_stl(drum.stl_path)
     mats, pairs = engine_materials(materials, interactions, sim.shear_modulus_scale, drum.ball_material,
                                    drum.wall_material)
     return drum_system(drum, mats, pairs, sim)

@@ -166,9 +166,12 @@ SECTIONS = {
 }
 
 
-def study_report(df: pd.DataFrame) -> StudyReport:
-    """The report spec of the sweep's study, from the resolved config of its first job."""
-    path = Path(df.job_dir.iloc[0]) / "config_resolved.yaml"
+def study_report(ok: pd.DataFrame) -> StudyReport:
+    """The report spec of the sweep's study, from the resolved config of its first finished job
+    (none finished: the failures alone are listed)."""
+    if ok.empty:
+        return StudyReport()
+    path = Path(ok.job_dir.iloc[0]) / "config_resolved.yaml"
     try:
         study = OmegaConf.load(path).study
     except Exception as exc:  # missing, truncated or not YAML
@@ -182,7 +185,7 @@ def report(sweep_dir: Path, out_dir: Path) -> Path:
     name = str(df.study.iloc[0])
     ok = df[df.status == "ok"]
     failed = df[df.status != "ok"]
-    spec = study_report(ok if len(ok) else df)
+    spec = study_report(ok)
     out_dir.mkdir(parents=True, exist_ok=True)
     write_table(df, out_dir / name)
     lines = [f"# {name}: {len(ok)} finished, {len(failed)} failed runs", "", f"Sweep folder: `{sweep_dir}`", ""]

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import hydra
 import pandas as pd
+import pyarrow.parquet as pq
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.types import RunMode
@@ -74,6 +75,11 @@ def finished(out_dir: Path, resolved: str) -> bool:
             log.warning("%s is unreadable (interrupted or corrupted): rerunning", out_dir / RECORD)
         return False
     if record.get("status") != "ok":
+        return False
+    try:
+        pq.read_metadata(out_dir / "record.parquet")
+    except (OSError, ValueError):
+        log.warning("%s is unreadable: rerunning", out_dir / "record.parquet")
         return False
     config = out_dir / RESOLVED
     if not config.exists() or config.read_text() != resolved:

@@ -60,6 +60,10 @@ class MillDesign:
 
 
 def design_mill(cfg: ScaleupConfig) -> MillDesign:
+    """The mill for a feed (explicit, or a region's share of the national PET) at cfg's BPR and shape."""
+    if (cfg.region is None) == (cfg.pet_feed_kg_per_h is None):
+        raise ConfigError(f"scaleup: give either pet_feed_kg_per_h (now {cfg.pet_feed_kg_per_h}) or region "
+                          f"(now {cfg.region}), not both or neither (set the other to null)")
     pet = cfg.pet_feed_kg_per_h
     if cfg.region is not None:
         pet = regional_pet_feed_kg_per_h(cfg.region, cfg.napcor_quantity, cfg.operating_hours_per_year)
@@ -76,6 +80,9 @@ def design_mill(cfg: ScaleupConfig) -> MillDesign:
     else:
         diameter = d_ball + (42.3 * cfg.fraction_of_critical / cfg.speed_rpm) ** 2
     length = volume / (math.pi / 4 * diameter**2)
+    if d_ball >= min(diameter, length) / 2:
+        raise ConfigError(f"scaleup.ball_radius_m={cfg.ball_radius_m}: balls of {d_ball:g} m do not fit a mill of "
+                          f"D {diameter:.3g} m x L {length:.3g} m (at most a quarter of the smaller side)")
     n_crit = critical_speed_rpm(diameter, d_ball)
     return MillDesign(
         pet_feed_kg_per_h=pet, naoh_feed_kg_per_h=naoh, holdup_kg=holdup,

@@ -9,6 +9,7 @@ where config becomes engine settings, for the drum, the MM400, calibration and t
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -48,7 +49,19 @@ def compose(config_name: str, overrides: list[str], hydra: bool = False) -> Dict
         with initialize_config_dir(str(CONF_DIR), version_base="1.3"):
             return hydra_compose(config_name, list(overrides), return_hydra_config=hydra)
     except (HydraException, OmegaConfBaseException) as exc:  # unknown key, group option or bad syntax
-        raise ConfigError(one_line(exc)) from exc
+        raise ConfigError(hydra_message(exc)) from exc
+
+
+def hydra_message(exc: Exception) -> str:
+    """Hydra's first line, the cause's (which names the expected type), and the options of a group."""
+    message = one_line(exc).removeprefix("In 'config': ").rstrip(".")
+    if exc.__cause__ is not None and one_line(exc.__cause__) not in message:
+        message += f": {one_line(exc.__cause__)}"
+    options = re.search(r"Available options in '[^']*':\n((?:\t.*\n?)+)", str(exc))
+    if options:
+        names = [o.strip() for o in options.group(1).split("\n") if o.strip() and not o.strip().startswith("base_")]
+        message += "; available: " + ", ".join(names)
+    return message
 
 
 @dataclass

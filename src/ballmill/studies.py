@@ -12,12 +12,13 @@ config.StudyConfig.kind.
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 from .config import MM400_GEOMETRY, ConfigError, DrumConfig, SimConfig
-from .dem import SystemSpec
+from .dem import SimulationError, SystemSpec
 from .drum import dem_key, drum_spec, simulate_drum
 from .economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd, yield_percent
 from .lab import conditions, mm400_spec, simulate_mm400, summarise, wall_interaction
@@ -28,6 +29,7 @@ from .scenario import Scenario, time_step_s
 log = logging.getLogger(__name__)
 DT_WARN_FRACTION = 0.4  # LIGGGHTS and EDEM advise 20-40 % of the Rayleigh step; warn above
 DENSE_BED_CONTACTS = 12  # a ball in a dense bed touches up to 12 others (plus walls)
+MIN_SAMPLES = 2  # a mean power needs samples; its standard error needs many (10 batches)
 
 
 @dataclass
@@ -39,7 +41,13 @@ class Plan:
 
 
 def check_numerics(spec: SystemSpec, sim: SimConfig, name: str) -> None:
-    """Refuse settings that cannot give a meaningful run; warn on a time step near stability's edge."""
+    """Refuse settings that cannot give a meaningful run on this machine; warn on a time step near
+    stability's edge."""
+    cores = os.cpu_count() or 1
+    if sim.threads > cores:
+        raise ConfigError(f"sim.threads={sim.threads} is more than this machine's {cores} cores: use 0 (all) to {cores}")
+    if sim.arch == "cuda" and not cuda_available():
+        raise ConfigError("sim.arch=cuda: no CUDA device or driver on this machine; use sim.arch=cpu")
     ratio = time_step_s(spec, sim) / spec.rayleigh_timestep_s()
     if ratio >= 1.0 and not sim.allow_unstable_time_step:
         raise ConfigError(f"sim: the time step is {ratio:.2f} x the Rayleigh step of {spec.rayleigh_timestep_s():.3g} s "
@@ -55,6 +63,14 @@ def check_numerics(spec: SystemSpec, sim: SimConfig, name: str) -> None:
                           f"{DENSE_BED_CONTACTS}")
 
 
+def cuda_available() -> bool:
+    """Whether Taichi finds a CUDA device (imports Taichi; launches nothing)."""
+    import taichi as ti
+    from taichi.lang.misc import is_arch_supported
+
+    return bool(is_arch_supported(ti.cuda))
+
+
 def plan_drum(s: Scenario, drum: DrumConfig | None = None, record: dict | None = None, economics=None) -> Plan:
     """The drum DEM (cached by dem_key under cache_dir) and its figures; economics if a design."""
     drum = drum or s.mill
@@ -62,6 +78,9 @@ def plan_drum(s: Scenario, drum: DrumConfig | None = None, record: dict | None =
     if sim.steady_after_s >= sim.duration_s:
         raise ConfigError(f"sim.steady_after_s={sim.steady_after_s} leaves no samples to average in "
                           f"sim.duration_s={sim.duration_s}: make it shorter than the duration")
+    if sim.sample_every_s > (sim.duration_s - sim.steady_after_s) / MIN_SAMPLES:
+        raise ConfigError(f"sim.sample_every_s={sim.sample_every_s} gives fewer than {MIN_SAMPLES} samples in the "
+                          f"averaging window of {sim.duration_s - sim.steady_after_s:g} s: sample more often")
     check_numerics(drum_spec(drum, s.materials, s.interactions, sim), sim, "mill")
     dem_dir = s.cache_dir / "dem" / dem_key(drum, s.materials, s.interactions, sim)
 
@@ -103,6 +122,9 @@ def plan_design(s: Scenario) -> Plan:
 def plan_lab(s: Scenario) -> Plan:
     """The MM400 at the configured ball-wall pair: one summary row per frequency x ball size."""
     lab = s.lab
+    if lab.settle_s >= lab.duration_s:
+        raise ConfigError(f"lab.settle_s={lab.settle_s} leaves nothing of lab.duration_s={lab.duration_s} to measure: "
+                          "make it shorter than the duration")
     pair = wall_interaction(s.interactions, lab)
     conds = conditions(lab, [pair.restitution], [pair.static_friction])
     check_numerics(mm400_spec(lab, conds, s.materials, s.interactions, s.sim), s.sim, "lab")
@@ -111,6 +133,9 @@ def plan_lab(s: Scenario) -> Plan:
         traj, collisions = simulate_mm400(lab, conds, s.materials, s.interactions, s.sim)
         summary = summarise(traj, collisions, lab, conds).assign(
             balls=lab.balls_per_jar, **{k: getattr(lab, k) for k in MM400_GEOMETRY})
+        if summary.mean_speed_m_per_s.isna().any():
+            raise SimulationError(f"lab: no ball speed after lab.settle_s={lab.settle_s} s of "
+                                  f"lab.duration_s={lab.duration_s} s: lengthen the run")
         summary.to_csv(out_dir / "lab_summary.csv", index=False)
         return {}
 

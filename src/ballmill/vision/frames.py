@@ -14,6 +14,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ..config import ConfigError
+
 IMAGE_SUFFIXES = {".png", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg"}
 
 
@@ -47,7 +49,16 @@ def read_meta(path: str | Path) -> dict:
     """Capture metadata written beside a video or inside a frame folder ({} when none)."""
     path = Path(path)
     side = path / "capture.json" if path.is_dir() else path.with_suffix(path.suffix + ".json")
-    return json.loads(side.read_text()) if side.exists() else {}
+    if not side.exists():
+        return {}
+    try:
+        meta = json.loads(side.read_text())
+    except ValueError as exc:
+        raise ConfigError(f"{side}: not valid JSON ({exc}); fix or delete it and give fps= and mm_per_px=") from exc
+    for key in ("capture_fps", "mm_per_px"):
+        if key in meta and not (isinstance(meta[key], (int, float)) and meta[key] > 0):
+            raise ConfigError(f"{side}: {key}={meta[key]!r} must be a positive number")
+    return meta
 
 
 def read_frames(path: str | Path) -> Iterator[np.ndarray]:
@@ -60,11 +71,15 @@ def read_frames(path: str | Path) -> Iterator[np.ndarray]:
         if not files:
             raise FileNotFoundError(f"video={path}: no image files ({sorted(IMAGE_SUFFIXES)}) in the folder")
         for f in files:
-            yield cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+            frame = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+            if frame is None:
+                raise ConfigError(f"video={path}: {f.name} is not a readable image")
+            yield frame
         return
     cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
-        raise RuntimeError(f"video={path}: OpenCV cannot open it")
+        raise ConfigError(f"video={path}: OpenCV cannot open it (not a video, empty or truncated); give a video "
+                          f"file or a folder of images ({sorted(IMAGE_SUFFIXES)})")
     while True:
         ok, frame = cap.read()
         if not ok:

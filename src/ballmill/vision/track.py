@@ -28,6 +28,7 @@ from scipy.ndimage import map_coordinates
 from scipy.optimize import linear_sum_assignment
 
 from ..columns import add_frame_velocities, image_to_world
+from ..config import ConfigError
 from .frames import read_frames, read_meta
 
 # Thresholds, each relative to the expected ball radius r (px) or to grey levels of the difference image:
@@ -38,6 +39,7 @@ MASK_MIN_GREY = 10.0  # ... and above this many grey levels (noise is ~2)
 PEAK_MIN = 0.6  # a ball candidate's distance-transform peak reaches at least 0.6 r (a full disc reaches r)
 PEAK_EXCLUSION = 1.2  # a second candidate lies more than 1.2 r from the first (touching balls: 2 r)
 MIN_EDGE_POINTS = 8  # fewer valid ray crossings than this: no circle (the ball counts as lost)
+SIZE_TOLERANCE = 0.05  # the measured ball size may differ from the given one by 5 % (fits are good to ~1 %)
 
 
 @dataclass(frozen=True)
@@ -51,11 +53,11 @@ class TrackerSettings:
 
     def __post_init__(self):
         if self.balls not in (1, 2):
-            raise ValueError(f"balls={self.balls}: the tracker follows 1 or 2 balls")
+            raise ConfigError(f"balls={self.balls}: the tracker follows 1 or 2 balls")
         if self.polarity not in ("auto", "dark", "bright"):
-            raise ValueError(f"polarity={self.polarity!r} is not one of ['auto', 'dark', 'bright']")
+            raise ConfigError(f"polarity={self.polarity!r} is not one of ['auto', 'dark', 'bright']")
         if self.ball_diameter_mm <= 0:
-            raise ValueError(f"ball_diameter_mm={self.ball_diameter_mm} must be > 0")
+            raise ConfigError(f"ball_diameter_mm={self.ball_diameter_mm} must be > 0")
 
 
 def sample_frames(frames, n: int) -> list[np.ndarray]:
@@ -170,11 +172,13 @@ def track(path: str | Path, settings: TrackerSettings, fps: float | None = None,
     the frame_* velocities (columns.py).  The velocity of frame k is the displacement from frame
     k-1 times the capture rate, as the paper measured it; frames where a ball was not found have
     lost=True and NaN positions."""
+    if not Path(path).exists():
+        raise FileNotFoundError(f"video={path} does not exist")
     meta = read_meta(path)
     fps = fps or meta.get("capture_fps")
     mm_per_px = mm_per_px or meta.get("mm_per_px")
     if not fps or not mm_per_px:
-        raise ValueError(f"video={path}: give fps=... and mm_per_px=... (no capture metadata beside it)")
+        raise ConfigError(f"video={path}: give fps=... and mm_per_px=... (no capture metadata beside it)")
     r_px = settings.ball_diameter_mm / 2 / mm_per_px
     polarity = settings.polarity
     if polarity == "auto":
@@ -194,7 +198,10 @@ def track(path: str | Path, settings: TrackerSettings, fps: float | None = None,
                 rows.append((k, b, u, v, radius, False))
             else:
                 rows.append((k, b, np.nan, np.nan, np.nan, True))
+    if not rows:
+        raise ConfigError(f"video={path}: holds no frames")
     df = pd.DataFrame(rows, columns=["frame", "particle", "u_px", "v_px", "radius_px", "lost"])
+    check_size(df, path, settings, mm_per_px)
     df.insert(1, "t_s", df.frame / fps)
     height, width = frame.shape[:2]
     df["x_m"], df["z_m"] = image_to_world(df.u_px, df.v_px, width, height, mm_per_px)
@@ -202,6 +209,20 @@ def track(path: str | Path, settings: TrackerSettings, fps: float | None = None,
     df = add_frame_velocities(df, fps)
     df.attrs.update(capture_fps=fps, mm_per_px=mm_per_px, polarity=polarity)
     return df.sort_values(["frame", "particle"]).reset_index(drop=True)
+
+
+def check_size(df: pd.DataFrame, path, settings: TrackerSettings, mm_per_px: float) -> None:
+    """Stop when no ball was found, or when the balls found measure another size than the one given
+    (a wrong size or scale puts the fits on the wrong edges: positions and speeds would be wrong)."""
+    given = settings.ball_diameter_mm
+    if df.lost.all():
+        raise ConfigError(f"video={path}: no ball found in any of its {df.frame.nunique()} frames; check "
+                          f"ball_diameter_mm={given}, mm_per_px={mm_per_px} and polarity={settings.polarity}")
+    measured = 2 * float(df.radius_px.median()) * mm_per_px
+    if abs(measured / given - 1) > SIZE_TOLERANCE:
+        raise ConfigError(f"video={path}: the balls measure {measured:.2f} mm across, not ball_diameter_mm={given} "
+                          f"(at mm_per_px={mm_per_px}); give ball_diameter_mm={measured:.2f}, or "
+                          f"mm_per_px={mm_per_px * given / measured:.4g} if the size is right")
 
 
 def track_to_files(opts) -> tuple[pd.DataFrame, Path]:

@@ -1,0 +1,196 @@
+"""Bad input, case by case: each is refused with one line, `error: ...`, naming the field or file
+and what is allowed, with exit status 2, before any simulation starts and without touching
+what the output folder already holds.  Runs in-process (no Taichi kernel is launched: the
+engine's constructor fails the test if anything reaches it)."""
+
+import re
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+import trimesh
+
+from ballmill.cli import main
+from ballmill.dem.engine import Engine
+from ballmill.vision.frames import write_frames
+
+FAST = ["sim.settle_s=0.05", "sim.duration_s=0.1", "sim.steady_after_s=0.0"]
+
+
+@pytest.fixture
+def inputs(tmp_path_factory):
+    """Files for the cases: STL meshes, videos, manifests, sweep folders."""
+    d = tmp_path_factory.mktemp("inputs")
+    trimesh.creation.box((0.4, 0.2, 0.4)).export(d / "closed.stl")
+    open_box = trimesh.creation.box((0.4, 0.2, 0.4))
+    open_box.update_faces(np.arange(len(open_box.faces)) > 1)  # one side missing
+    open_box.export(d / "open.stl")
+    (d / "notes.stl").write_text("not a mesh\n")
+    (d / "garbage.avi").write_bytes(b"\x00\x01garbage" * 100)
+    (d / "empty.avi").write_bytes(b"")
+    grey = [np.full((120, 200), 200, np.uint8) for _ in range(20)]
+    write_frames(grey, d / "grey.avi", 2134.0, 0.2)
+    discs = []
+    for k in range(20):  # one dark ball of 12 mm (30 px at 0.2 mm/px) crossing a bright frame
+        frame = np.full((160, 240), 220, np.uint8)
+        cv2.circle(frame, (80 + 2 * k, 80), 30, 40, -1, lineType=cv2.LINE_AA)
+        discs.append(frame)
+    write_frames(discs, d / "ball12mm.avi", 2134.0, 0.2)
+    real = (d / "ball12mm.avi").read_bytes()
+    (d / "truncated.avi").write_bytes(real[:400])
+    for name, rows in {"no_columns": "file,balls\nball12mm.avi,1\n",
+                       "balls_two": "file,frequency_hz,ball_diameter_mm,balls\nball12mm.avi,25,12,two\n",
+                       "missing_video": "file,frequency_hz,ball_diameter_mm,balls\ngone.avi,25,12,1\n",
+                       "empty_manifest": "file,frequency_hz,ball_diameter_mm,balls\n"}.items():
+        (d / name).mkdir()
+        (d / name / "videos.csv").write_text(rows)
+    (d / "no_manifest").mkdir()
+    (d / "empty_sweep").mkdir()
+    job = d / "corrupt_sweep" / "scaleup.bpr=19"
+    job.mkdir(parents=True)
+    (job / "record.json").write_text('{"study": "fig3b", "status": "o')  # truncated mid-write
+    return d
+
+
+@pytest.fixture
+def cli(tmp_path, monkeypatch, capsys):
+    """Run `ballmill ARGS` in a folder whose outputs/ already holds results; return (status, stderr)."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(Engine, "__init__", lambda *a, **k: pytest.fail("a simulation started"))
+    kept = tmp_path / "outputs" / "sweeps" / "fig3b" / "old" / "record.json"
+    kept.parent.mkdir(parents=True)
+    kept.write_text('{"status": "ok"}')
+
+    def call(*args):
+        before = sorted(p for p in tmp_path.rglob("*"))
+        with pytest.raises(SystemExit) as exit_info:
+            main(list(args))
+        err = capsys.readouterr().err.strip().splitlines()
+        assert sorted(p for p in tmp_path.rglob("*")) == before  # nothing written or removed
+        assert kept.read_text() == '{"status": "ok"}'
+        return exit_info.value.code, err[-1] if err else ""
+
+    return call
+
+
+RUN = [
+    # (overrides, the message's pattern); every one of them names the field and what is allowed
+    (["scaleup.fill_fraction=1.0"], r"scaleup.fill_fraction=1.0 is outside the allowed range \(0.0, 1.0\)"),
+    (["scaleup.fill_fraction=0"], r"scaleup.fill_fraction=0.0 is outside the allowed range \(0.0, 1.0\)"),
+    (["scaleup.bpr=nan"], r"scaleup.bpr=nan is not a finite number"),
+    (["scaleup.bpr=inf"], r"scaleup.bpr=inf is not a finite number"),
+    (["scaleup.bpr=-5"], r"scaleup.bpr=-5.0 is outside the allowed range \(0.0, inf\]"),
+    (["scaleup.bpr=30"], r"scaleup.bpr=30.0 is outside the yield fit's range \[10.0, 23.0\]"),
+    (["scaleup.bpr=abc"], r"scaleup.bpr=abc.*could not be converted to Float"),
+    (["scaleup.bpr=[1,2]"], r"scaleup.bpr=\[1,2\].*"),
+    (["scaleup.region=XX", "scaleup.pet_feed_kg_per_h=null"], r"scaleup.region='XX' is not one of \['DC', 'DE'"),
+    (["scaleup.region=FL"], r"scaleup: give either pet_feed_kg_per_h \(now 1000.0\) or region \(now FL\), not both"),
+    (["scaleup.napcor_quantity=sold"], r"scaleup.napcor_quantity='sold' is not one of \['bottles_collected'"),
+    (["scaleup.ball_radius_m=10"], r"scaleup.ball_radius_m=10.0: balls of 20 m do not fit a mill"),
+    (["scaleup.speed_rpm=0"], r"scaleup.speed_rpm=0.0 is outside the allowed range \(0.0, inf\]"),
+    (["scaleup.operating_hours_per_year=9000"], r"scaleup.operating_hours_per_year=9000.0 is outside .*\(0.0, 8784.0\]"),
+    (["economics.cost_exponent=3"], r"economics.cost_exponent=3.0 is outside the allowed range \(0.0, 2.0\]"),
+    (["economics.cepci_target_year=2030"], r"cepci.csv: no row with year=2030; have \["),
+    (["economics.prices_file=missing.csv"], r"data table 'missing.csv' not found in .*; available: \["),
+    (["sim.dt_fraction=1.0"], r"sim: the time step is 1.00 x the Rayleigh step .* set sim.allow_unstable_time_step"),
+    (["sim.dt_fraction=0"], r"sim.dt_fraction=0.0 is outside the allowed range \(0.0, 1.0\]"),
+    (["sim.dt_s=0.01"], r"sim: the time step is \d+\.\d\d x the Rayleigh step"),
+    (["sim.steady_after_s=0.6", "sim.duration_s=0.6"], r"sim.steady_after_s=0.6 leaves no samples to average"),
+    (["sim.sample_every_s=1.0"], r"sim.sample_every_s=1.0 gives fewer than 2 samples"),
+    (["sim.threads=999"], r"sim.threads=999 is more than this machine's \d+ cores"),
+    (["sim.threads=-1"], r"sim.threads=-1 is outside the allowed range \[0, inf\]"),
+    (["sim.arch=gpu"], r"sim.arch='gpu' is not one of \['cpu', 'cuda'\]"),
+    (["sim.precision=f16"], r"sim.precision='f16' is not one of \['f64', 'f32'\]"),
+    (["sim.max_contacts_per_particle=4"], r"sim.max_contacts_per_particle=4 is too few for a bed of \d+ balls .* use at least 12"),
+    (["sim.dt_fractoin=0.1"], r"Could not override 'sim.dt_fractoin': Key 'dt_fractoin' not in 'SimConfig'"),
+    (["sim=huge"], r"Could not find 'sim/huge'; available: ci, lab, paper"),
+    (["study=foo"], r"Could not find 'study/foo'; available: design, drum, lab"),
+    (["+sweep=fig99"], r"Could not find 'sweep/fig99'; available: fig3b, fig4, lab_validation"),
+    (["materials.steel.density_kg_per_m3=-1"], r"materials.steel.density_kg_per_m3=-1.0 is outside .*\(0.0, inf\]"),
+    (["interactions.steel-steel.restitution=1.5"], r"interactions.steel-steel.restitution=1.5 is outside .*\(0.0, 1.0\]"),
+    (["interactions.steel-steel.restitution=nan"], r"interactions.steel-steel.restitution=nan is not a finite number"),
+    (["mill.ball_material=unobtainium"], r"unknown material 'unobtainium'; known: \['pmma', 'steel'\]"),
+    (["study=drum", "mill.ball_radius_m=0.1"], r"mill.ball_radius_m=0.1: balls of 0.2 m do not fit a drum"),
+    (["study=drum", "mill.speed_rpm=0"], r"mill.speed_rpm=0.0 is outside the allowed range \(0.0, inf\]"),
+    (["study=drum", "mill.fill_fraction=0.9", "mill.bed_porosity=0.0"], r"mill: \d+ balls of radius .* do not fit"),
+    (["study=drum", "mill.geometry=stl", "mill.stl_path=/no/such.stl"], r"mill.stl_path=/no/such.stl: no such file"),
+    (["study=drum", "mill.geometry=stl", "mill.stl_path={inputs}/notes.stl"], r"mill.stl_path=.*notes.stl: (not a readable STL|holds no triangles)"),
+    (["study=drum", "mill.geometry=stl", "mill.stl_path={inputs}/open.stl"], (r"mill.stl_path=.*open.stl: the mesh is "
+                                                                              r"not closed")),
+    (["study=drum", "mill.geometry=cad"], r"mill.geometry='cad' is not one of \['analytic', 'stl'\]"),
+    (["study=lab", "sim=lab", "lab.frequencies_hz=[]"], r"lab.frequencies_hz=\[\] is empty"),
+    (["study=lab", "sim=lab", "lab.frequencies_hz=[25,-1]"], r"lab.frequencies_hz\[1\]=-1.0 is outside .*\(0.0, inf\]"),
+    (["study=lab", "sim=lab", "lab.ball_diameters_m=[0.05]"], r"lab.ball_diameters_m: 0.05 m balls do not fit"),
+    (["study=lab", "sim=lab", "lab.settle_s=2.0"], r"lab.settle_s=2.0 leaves nothing of lab.duration_s=2.0"),
+    (["study=lab", "sim=lab", "lab.balls_per_jar=3"], r"lab.balls_per_jar=3 is outside the allowed range \[1, 2\]"),
+    (["-m", "scaleup.bpr=19,99"], r"scaleup.bpr=99.0 is outside the yield fit's range .*\(job scaleup.bpr=99\)"),
+    (["scaleup.bpr=19,20"], r"scaleup.bpr: several values need a sweep: add -m"),
+    (["bpr19"], r"Error parsing override 'bpr19'"),
+]
+
+
+@pytest.mark.parametrize("overrides, message", RUN, ids=[" ".join(o) for o, _ in RUN])
+def test_run_refuses(cli, inputs, overrides, message):
+    status, line = cli("run", *FAST, *[o.format(inputs=inputs) for o in overrides])
+    assert status == 2
+    assert line.startswith("error: ") and re.search(message, line), line
+
+
+OTHERS = [
+    (["report"], r"sweeps=\[\] is empty: give sweeps=\[outputs/sweeps/NAME,...\]"),
+    (["report", "outputs/sweeps/fig3b"], r"'outputs/sweeps/fig3b' is not key=value: .* sweeps=\[outputs/sweeps/fig3b\]"),
+    (["report", "sweeps=[/no/such/sweep]"], r"sweeps: /no/such/sweep is not a folder"),
+    (["report", "sweeps=[{inputs}/empty_sweep]"], r"sweeps: no \*/record.json under .*empty_sweep"),
+    (["report", "sweeps=[a]", "colour=red"], r"Could not override 'colour': Key 'colour' not in 'ReportConfig'"),
+    (["track"], r"missing mandatory value: video"),
+    (["track", "video=/no/such.avi"], r"video=/no/such.avi does not exist"),
+    (["track", "video={inputs}/empty.avi", "fps=2134", "mm_per_px=0.2"], r"video=.*empty.avi: OpenCV cannot open it"),
+    (["track", "video={inputs}/garbage.avi", "fps=2134", "mm_per_px=0.2"], r"video=.*garbage.avi: OpenCV cannot open"),
+    (["track", "video={inputs}/truncated.avi", "fps=2134", "mm_per_px=0.2"], (r"video=.*truncated.avi: (OpenCV cannot "
+                                                                              r"open it|holds no frames)")),
+    (["track", "video={inputs}/grey.avi", "balls=1"], r"video=.*grey.avi: no ball found in any of its 20 frames"),
+    (["track", "video={inputs}/ball12mm.avi", "balls=1", "ball_diameter_mm=17.6"],
+     r"the balls measure 1[12].\d\d mm across, not ball_diameter_mm=17.6 \(at mm_per_px=0.2\); give ball_diameter_mm="),
+    (["track", "video={inputs}/ball12mm.avi", "mm_per_px=-1"], r"mm_per_px=-1.0 is outside the allowed range \(0.0, inf\]"),
+    (["track", "video={inputs}/ball12mm.avi", "fps=0"], r"fps=0.0 is outside the allowed range \(0.0, inf\]"),
+    (["track", "video={inputs}/ball12mm.avi", "balls=3"], r"balls=3 is outside the allowed range \[1, 2\]"),
+    (["track", "video={inputs}/ball12mm.avi", "polarity=grey"], r"polarity='grey' is not one of \['auto', 'dark'"),
+    (["render", "mm_per_px=0"], r"mm_per_px=0.0 is outside the allowed range \(0.0, inf\]"),
+    (["render", "wall_restitution=2"], r"wall_restitution=2.0 is outside the allowed range \(0.0, 1.0\]"),
+    (["calibrate"], r"missing mandatory value: videos"),
+    (["calibrate", "videos=/no/such/folder"], r"videos=/no/such/folder: no videos.csv"),
+    (["calibrate", "videos={inputs}/no_manifest"], r"videos=.*no_manifest: no videos.csv \(columns file"),
+    (["calibrate", "videos={inputs}/no_columns"], r"videos.csv: missing columns \['ball_diameter_mm', 'frequency_hz'\]"),
+    (["calibrate", "videos={inputs}/balls_two"], r"videos.csv: column balls holds 'two'; give positive numbers"),
+    (["calibrate", "videos={inputs}/missing_video"], r"videos.csv: names videos that are not in .*: \['gone.avi'\]"),
+    (["calibrate", "videos={inputs}/empty_manifest"], r"videos.csv: lists no videos"),
+    (["calibrate", "videos=x", "restitutions=[]"], r"restitutions=\[\] is empty"),
+    (["calibrate", "videos=x", "restitutions=[0.5,1.5]"], r"restitutions\[1\]=1.5 is outside .*\(0.0, 1.0\]"),
+    (["bench", "cases=[0]"], r"cases: '0' is neither a ball count \(an integer >= 2\) nor bpr19"),
+    (["bench", "cases=[big]"], r"cases: 'big' is neither a ball count"),
+    (["bench", "peer=lammps"], r"peer='lammps' is not one of \[None, 'liggghts'\]"),
+    (["frobnicate"], r"unknown command 'frobnicate'; one of run, report, track"),
+]
+
+
+@pytest.mark.parametrize("args, message", OTHERS, ids=[" ".join(a) for a, _ in OTHERS])
+def test_other_commands_refuse(cli, inputs, args, message):
+    status, line = cli(*[a.format(inputs=inputs) for a in args])
+    assert status == 2
+    assert line.startswith("error: ") and re.search(message, line), line
+
+
+def test_a_corrupted_record_is_listed_as_failed_not_reused(inputs, tmp_path, capsys):
+    main(["report", f"sweeps=[{inputs / 'corrupt_sweep'}]", f"out={tmp_path}"])
+    md = (tmp_path / "fig3b.md").read_text() if (tmp_path / "fig3b.md").exists() else (tmp_path / "?.md").read_text()
+    assert "0 finished, 1 failed" in md and "record.json unreadable: rerun the sweep" in md
+    assert pd.read_csv(next(tmp_path.glob("*.csv"))).status.tolist() == ["failed"]
+
+
+def test_a_time_step_above_40_percent_of_rayleigh_is_accepted_with_a_warning(caplog):
+    from ballmill.jobs import check_jobs
+
+    with caplog.at_level("WARNING"):
+        assert check_jobs(["sim.dt_fraction=0.5"], multirun=False) is None
+    assert "the time step is 50 % of the Rayleigh step (above 40 %)" in caplog.text
