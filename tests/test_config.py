@@ -19,6 +19,7 @@ def test_every_sweep_composes(sweep):
     assert cfg.hydra.mode.name == "MULTIRUN"
     assert cfg.hydra.sweeper.params
     assert cfg.study.name == sweep
+    assert cfg.hydra.launcher.n_jobs == 2  # two joblib processes, one per core
 
 
 @pytest.mark.parametrize(

@@ -12,7 +12,7 @@ from hydra.types import RunMode
 
 from .config import ConfigError, one_line
 from .scenario import compose, load
-from .studies import plan
+from .studies import check_machine, plan
 
 
 def parse(overrides: list[str]):
@@ -42,12 +42,26 @@ def expand(overrides: list[str], multirun: bool) -> tuple[list[list[str]], Path 
     return [fixed + list(combo) for combo in itertools.product(*swept.values())], Path(cfg.hydra.sweep.dir)
 
 
+def runs_here(launcher) -> bool:
+    """Whether the launcher runs the jobs on this machine (not SLURM, not a remote Ray cluster)."""
+    target = launcher.get("_target_", "")
+    return not ("SlurmLauncher" in target or ("RayLauncher" in target and launcher.ray.init.get("address")))
+
+
 def check_jobs(overrides: list[str], multirun: bool) -> Path | None:
-    """Refuse the whole run (ConfigError naming the job) if any job's config is bad; the sweep folder."""
+    """Refuse the whole run (ConfigError naming the job) if any job's config is bad; the sweep folder.
+    What depends on the machine (threads, CUDA) is checked here only when the jobs run here."""
     jobs, sweep_dir = expand(overrides, multirun)
+    launcher = compose("config", jobs[0], hydra=True).hydra.launcher
     for job in jobs:
         try:
-            plan(load(compose("config", job)))
+            scenario = load(compose("config", job))
+            plan(scenario)
+            if runs_here(launcher):
+                check_machine(scenario.sim)
+            if "submitit" in launcher.get("_target_", "") and scenario.sim.threads == 0:
+                raise ConfigError("sim.threads=0 (all cores) cannot size a submitit job: give sim.threads >= 1, "
+                                  "the CPUs each job gets")
         except ConfigError as exc:
             own = [o for o in job if o not in overrides]
             raise ConfigError(f"{exc}{f' (job {chr(32).join(own)})' if own else ''}") from exc

@@ -40,14 +40,18 @@ class Plan:
     execute: Callable[[Path], dict]
 
 
-def check_numerics(spec: SystemSpec, sim: SimConfig, name: str) -> None:
-    """Refuse settings that cannot give a meaningful run on this machine; warn on a time step near
-    stability's edge."""
+def check_machine(sim: SimConfig) -> None:
+    """Refuse settings this machine cannot honour (checked where the job runs, and up front when
+    the jobs run here)."""
     cores = os.cpu_count() or 1
     if sim.threads > cores:
         raise ConfigError(f"sim.threads={sim.threads} is more than this machine's {cores} cores: use 0 (all) to {cores}")
     if sim.arch == "cuda" and not cuda_available():
         raise ConfigError("sim.arch=cuda: no CUDA device or driver on this machine; use sim.arch=cpu")
+
+
+def check_numerics(spec: SystemSpec, sim: SimConfig, name: str) -> None:
+    """Refuse settings that cannot give a meaningful run; warn on a time step near stability's edge."""
     ratio = time_step_s(spec, sim) / spec.rayleigh_timestep_s()
     if ratio >= 1.0 and not sim.allow_unstable_time_step:
         raise ConfigError(f"sim: the time step is {ratio:.2f} x the Rayleigh step of {spec.rayleigh_timestep_s():.3g} s "
@@ -85,6 +89,7 @@ def plan_drum(s: Scenario, drum: DrumConfig | None = None, record: dict | None =
     dem_dir = s.cache_dir / "dem" / dem_key(drum, s.materials, s.interactions, sim)
 
     def execute(out_dir: Path) -> dict:
+        check_machine(sim)
         run = simulate_drum(drum, s.materials, s.interactions, sim, dem_dir)
         out = {f"dem_{k}": v for k, v in run.summary.items()} | {"dem_dir": str(dem_dir)}
         run.results.loads.to_csv(out_dir / "loads.csv", index=False)
@@ -130,6 +135,7 @@ def plan_lab(s: Scenario) -> Plan:
     check_numerics(mm400_spec(lab, conds, s.materials, s.interactions, s.sim), s.sim, "lab")
 
     def execute(out_dir: Path) -> dict:
+        check_machine(s.sim)
         traj, collisions = simulate_mm400(lab, conds, s.materials, s.interactions, s.sim)
         summary = summarise(traj, collisions, lab, conds).assign(
             balls=lab.balls_per_jar, **{k: getattr(lab, k) for k in MM400_GEOMETRY})

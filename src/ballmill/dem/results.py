@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,9 +59,13 @@ class ParquetSink:
         pass
 
     def close(self, results: Results) -> None:
+        """Each table to a temporary name, then renamed: jobs on other machines sharing a cache
+        folder, or an interrupted one, never leave a half-written table."""
         self.folder.mkdir(parents=True, exist_ok=True)
         for name in TABLES:
-            getattr(results, name).to_parquet(self.folder / f"{name}.parquet", index=False)
+            tmp = self.folder / f".{name}.{os.getpid()}.parquet.tmp"
+            getattr(results, name).to_parquet(tmp, index=False)
+            os.replace(tmp, self.folder / f"{name}.parquet")
 
 
 class Recorder:
