@@ -58,3 +58,45 @@ def test_calibrate_command_writes_surface_figures_and_best_pair(experiment, tmp_
 def test_bad_grid_names_the_field():
     with pytest.raises(ConfigError, match=r"restitutions\[1\]=1.5 .*\(0.0, 1.0\]"):
         CalibrationConfig(restitutions=[0.5, 1.5])
+
+
+def smooth_response(obs, lab, pairs, materials, interactions, sim, repeats=1):
+    """A noise-free stand-in for the simulator: speed and collision rate smooth in (e, mu)."""
+    return pd.DataFrame([{**{k: getattr(o, k) for k in ("balls", "frequency_hz", "ball_diameter_m")},
+                          "wall_restitution": e, "wall_friction": mu,
+                          "mean_speed_m_per_s": o.frequency_hz / 10 * (1 + 0.3 * e - 0.5 * mu),
+                          "video_collisions_per_s": o.frequency_hz * (4 * e**2 + 0.5 * mu)}
+                         for o in obs.itertuples() for e, mu in pairs])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_bayesian_search_finds_the_minimum_of_a_smooth_response_in_nine_trials(monkeypatch, seed):
+    """The search machinery against a known minimum (the synthetic videos are too noisy for a
+    0.05 resolution, see the README): restitution within 0.05, friction within one grid step
+    (0.2; the statistics hardly depend on it), in as many trials as the test grid has points."""
+    import ballmill.calibrate as cal
+
+    monkeypatch.setattr(cal, "simulate_grid", smooth_response)
+    conditions_ = pd.DataFrame({"balls": [1, 1], "frequency_hz": [25.0, 30.0], "ball_diameter_m": [0.0176] * 2})
+    obs = smooth_response(conditions_, None, [HIDDEN], None, None, None).drop(columns=["wall_restitution",
+                                                                                         "wall_friction"])
+    opts = CalibrationConfig(videos="-", trials=len(GRID.restitutions) * len(GRID.frictions), batch=3, seed=seed)
+    trials, _, best = cal.search(obs, None, opts, None, None, None)
+    assert len(trials) == 9 and trials.best_score.is_monotonic_decreasing
+    assert abs(best["wall_restitution"] - HIDDEN[0]) < 0.05, trials
+    assert abs(best["wall_friction"] - HIDDEN[1]) <= 0.2, trials
+    again, _, _ = cal.search(obs, None, opts, None, None, None)
+    pd.testing.assert_frame_equal(trials, again)  # seeded: the same trials every time
+
+
+def test_calibrate_both_methods_writes_the_comparison(experiment, tmp_path):
+    main(["calibrate", f"videos={experiment}", f"out={tmp_path}", *LAB, "method=both", "restitutions=[0.3,0.6,0.9]",
+          "frictions=[0.1,0.3,0.5]", "trials=6", "batch=3"])
+    best = json.loads((tmp_path / "best.json").read_text())
+    assert best["method"] == "both" and best["grid_points"] == 9 and best["search_trials"] == 6
+    assert 0.3 <= best["search_wall_restitution"] <= 0.9 and 0.1 <= best["search_wall_friction"] <= 0.5
+    trials = pd.read_csv(tmp_path / "trials.csv")
+    reached = best["search_trials_to_reach_grid_best"]
+    assert reached is None or trials.best_score.iloc[reached - 1] <= best["score"]
+    for name in ("score_history.png", "score_history.svg", "score_surface.png", "trials.csv"):
+        assert (tmp_path / name).stat().st_size > 0

@@ -24,7 +24,7 @@ from .config import BenchConfig, ConfigError, DrumConfig, InteractionConfig, Mat
 from .dem import Engine, init_taichi
 from .drum import ball_count, drum_spec
 from .files import write_json
-from .peer import liggghts_rates
+from .peer import liggghts_rates, require_liggghts
 from .scenario import engine_options, time_step_s
 
 REFERENCE = DrumConfig(inner_diameter_m=0.4, inner_length_m=0.2, ball_radius_m=0.005)
@@ -92,6 +92,8 @@ def main(opts: BenchConfig) -> None:
     for case in opts.cases:
         if case != "bpr19" and not (case.isdigit() and int(case) >= 2):
             raise ConfigError(f"cases: {case!r} is neither a ball count (an integer >= 2) nor bpr19")
+    if opts.peer == "liggghts":
+        require_liggghts()  # before our own runs, not after
     if opts.lab:
         rows = [bench_lab(opts.threads, opts.lab_duration_s)]
     else:

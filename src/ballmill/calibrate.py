@@ -9,7 +9,13 @@ as lab.summarise counts them on simulated trajectories.
 Grid search: every (restitution, friction) pair of the grid runs every observed condition,
 all as replicas of one Taichi launch per ball count; the score of a pair is the mean over
 conditions of (relative speed error)^2, plus collision_weight * (relative error of the
-collision rate pooled over the conditions)^2.
+collision rate pooled over the conditions)^2.  With `repeats` > 1 each condition and pair is
+simulated from that many starts and the statistics averaged before scoring.
+
+Bayesian search (method=optuna): Optuna's TPE sampler, seeded, over continuous ranges with
+the same score.  Optuna is called directly (ask and tell) rather than through Hydra's Optuna
+sweeper: a sweeper runs one job, so one Taichi start-up and compilation, per trial, while here
+the `batch` pairs Optuna proposes at a time run as replicas of one launch, as the grid does.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ from .vision.track import TrackerSettings, track
 log = logging.getLogger(__name__)
 MANIFEST = "videos.csv"
 KEYS = ["balls", "frequency_hz", "ball_diameter_m"]
+PAIR = ["wall_restitution", "wall_friction"]
 TRACK_COLUMNS = {"t_s", "frame", "particle", "x_m", "z_m", "lost"}
 
 
@@ -94,15 +101,18 @@ def observations(folder: str | Path, lab: MM400Config) -> pd.DataFrame:
 
 
 def simulate_grid(obs: pd.DataFrame, lab: MM400Config, pairs: list[tuple[float, float]], materials,
-                  interactions: dict[str, InteractionConfig], sim: SimConfig) -> pd.DataFrame:
-    """Simulated statistics of every observed condition at every (restitution, friction) pair."""
+                  interactions: dict[str, InteractionConfig], sim: SimConfig, repeats: int = 1) -> pd.DataFrame:
+    """Simulated statistics of every observed condition at every (restitution, friction) pair,
+    averaged over `repeats` starts."""
     out = []
     for balls, group in obs.groupby("balls"):
-        conds = [Condition(r.frequency_hz, r.ball_diameter_m, e, mu) for r in group.itertuples() for e, mu in pairs]
+        conds = [Condition(r.frequency_hz, r.ball_diameter_m, e, mu, k) for r in group.itertuples() for e, mu in pairs
+                 for k in range(repeats)]
         cfg = replace(lab, balls_per_jar=int(balls))
         traj, collisions = simulate_mm400(cfg, conds, materials, interactions, sim)
         out.append(summarise(traj, collisions, cfg, conds).assign(balls=int(balls)))
-    return pd.concat(out, ignore_index=True)
+    table = pd.concat(out, ignore_index=True).drop(columns=["replica", "replicate"])
+    return table.groupby([*KEYS, *PAIR], as_index=False, sort=False).mean().assign(repeats=repeats)
 
 
 def score(sim: pd.DataFrame, obs: pd.DataFrame, collision_weight: float) -> pd.DataFrame:
@@ -114,7 +124,7 @@ def score(sim: pd.DataFrame, obs: pd.DataFrame, collision_weight: float) -> pd.D
     """
     m = sim.merge(obs, on=KEYS, suffixes=("_sim", "_obs"))
     m["speed_error2"] = (m.mean_speed_m_per_s_sim / m.mean_speed_m_per_s_obs - 1) ** 2
-    g = m.groupby(["wall_restitution", "wall_friction"])
+    g = m.groupby(PAIR)
     out = pd.DataFrame({
         "speed_rms_error": np.sqrt(g.speed_error2.mean()),
         "collision_error": g.video_collisions_per_s_sim.mean() / np.maximum(g.video_collisions_per_s_obs.mean(),
@@ -129,13 +139,52 @@ def calibrate(obs: pd.DataFrame, lab: MM400Config, grid: CalibrationConfig, mate
     """Score surface, the simulated table behind it, and the best pair with its sensitivity."""
     pairs = [(e, mu) for e in grid.restitutions for mu in grid.frictions]
     log.info("calibration: %d pairs x %d conditions", len(pairs), len(obs))
-    simulated = simulate_grid(obs, lab, pairs, materials, interactions, sim)
+    simulated = simulate_grid(obs, lab, pairs, materials, interactions, sim, grid.repeats)
     surface = score(simulated, obs, grid.collision_weight)
     best = surface.loc[surface.score.idxmin()]
     result = {"wall_restitution": float(best.wall_restitution), "wall_friction": float(best.wall_friction),
               "score": float(best.score), "speed_rms_error": float(best.speed_rms_error),
               "collision_error": float(best.collision_error), **sensitivity(simulated, best)}
     return surface, simulated, result
+
+
+def search(obs: pd.DataFrame, lab: MM400Config, opts: CalibrationConfig, materials,
+           interactions: dict[str, InteractionConfig], sim: SimConfig) -> tuple[pd.DataFrame, pd.DataFrame, dict]:
+    """Optuna (TPE, seeded) over the restitution and friction ranges: the trials in order (with
+    the best score so far), the simulated table behind them, and the best pair."""
+    import optuna
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    sampler = optuna.samplers.TPESampler(seed=opts.seed, n_startup_trials=opts.startup_trials, multivariate=True,
+                                         constant_liar=True)
+    study = optuna.create_study(sampler=sampler)
+    space = {"wall_restitution": optuna.distributions.FloatDistribution(*opts.restitution_range),
+             "wall_friction": optuna.distributions.FloatDistribution(*opts.friction_range)}
+    rows, tables = [], []
+    while len(rows) < opts.trials:
+        asked = [study.ask(space) for _ in range(min(opts.batch, opts.trials - len(rows)))]
+        pairs = [(t.params["wall_restitution"], t.params["wall_friction"]) for t in asked]
+        log.info("calibration search: trials %d-%d of %d", len(rows) + 1, len(rows) + len(asked), opts.trials)
+        simulated = simulate_grid(obs, lab, pairs, materials, interactions, sim, opts.repeats)
+        scored = {(r.wall_restitution, r.wall_friction): r for r in
+                  score(simulated, obs, opts.collision_weight).itertuples()}
+        for trial, pair in zip(asked, pairs):
+            r = scored[pair]
+            study.tell(trial, float(r.score))
+            rows.append({"trial": trial.number + 1, "wall_restitution": pair[0], "wall_friction": pair[1],
+                         "score": r.score, "speed_rms_error": r.speed_rms_error, "collision_error": r.collision_error})
+        tables.append(simulated)
+    trials = pd.DataFrame(rows).assign(best_score=lambda t: t.score.cummin())
+    best = trials.loc[trials.score.idxmin()]
+    return trials, pd.concat(tables, ignore_index=True), {
+        **{k: float(best[k]) for k in (*PAIR, "score", "speed_rms_error", "collision_error")},
+        "trial": int(best.trial), "trials": len(trials)}
+
+
+def trials_to_reach(trials: pd.DataFrame, target: float) -> int | None:
+    """The first trial whose best score so far is at or below target (None: never)."""
+    hit = trials[trials.best_score <= target]
+    return int(hit.trial.iloc[0]) if len(hit) else None
 
 
 def sensitivity(simulated: pd.DataFrame, best) -> dict:
@@ -152,21 +201,36 @@ def sensitivity(simulated: pd.DataFrame, best) -> dict:
 
 
 def calibrate_to_files(opts: CalibrationConfig, s) -> dict:
-    """`ballmill calibrate`: observations, score surface, simulated table, best.json and the figures
-    (score surface; validation at the best pair) in opts.out; returns the best pair."""
+    """`ballmill calibrate`: observations, then per method its tables and figures in opts.out
+    (grid: score_surface, simulated, validation at the best pair; optuna: trials and the score
+    history), and best.json: the best pair of each method and, with both, how many trials the
+    search needed to reach the grid's best score."""
     from .files import write_json
-    from .plots import plot_lab_validation, plot_score_surface, save_figure
+    from .plots import plot_lab_validation, plot_score_history, plot_score_surface, save_figure
 
     obs = observations(opts.videos, s.lab)  # checks the videos before anything is written
     out = Path(opts.out)
     out.mkdir(parents=True, exist_ok=True)
     obs.to_csv(out / "observations.csv", index=False)
-    surface, simulated, best = calibrate(obs, s.lab, opts, s.materials, s.interactions, s.sim)
-    surface.to_csv(out / "score_surface.csv", index=False)
-    simulated.to_csv(out / "simulated.csv", index=False)
-    write_json(out / "best.json", best)
-    save_figure(plot_score_surface(surface, best), out / "score_surface")
-    at_best = simulated[(simulated.wall_restitution == best["wall_restitution"])
-                        & (simulated.wall_friction == best["wall_friction"])]
-    save_figure(plot_lab_validation(at_best, obs), out / "validation")
-    return best
+    result, grid_best = {"method": opts.method, "repeats": opts.repeats}, None
+    if opts.method in ("grid", "both"):
+        surface, simulated, best = calibrate(obs, s.lab, opts, s.materials, s.interactions, s.sim)
+        surface.to_csv(out / "score_surface.csv", index=False)
+        simulated.to_csv(out / "simulated.csv", index=False)
+        save_figure(plot_score_surface(surface, best), out / "score_surface")
+        at_best = simulated[(simulated.wall_restitution == best["wall_restitution"])
+                            & (simulated.wall_friction == best["wall_friction"])]
+        save_figure(plot_lab_validation(at_best, obs), out / "validation")
+        result |= {**best, "grid_points": len(surface)}
+        grid_best = best["score"]
+    if opts.method in ("optuna", "both"):
+        trials, simulated, best = search(obs, s.lab, opts, s.materials, s.interactions, s.sim)
+        trials.to_csv(out / "trials.csv", index=False)
+        simulated.to_csv(out / "search_simulated.csv", index=False)
+        save_figure(plot_score_history(trials, grid_best), out / "score_history")
+        found = {f"search_{k}": v for k, v in best.items()}
+        result = result | found if opts.method == "both" else result | best
+        if grid_best is not None:
+            result["search_trials_to_reach_grid_best"] = trials_to_reach(trials, grid_best)
+    write_json(out / "best.json", result)
+    return result

@@ -183,18 +183,34 @@ MM400_GEOMETRY = ("jar_volume_ml", "jar_inner_diameter_m", "amplitude_m", "pivot
 
 @dataclass
 class CalibrationConfig:
-    """`ballmill calibrate`: grid of ball-wall (steel-PMMA) restitution and friction scored against
-    the tracked videos of a folder (with its videos.csv manifest)."""
+    """`ballmill calibrate`: the ball-wall (steel-PMMA) restitution and friction that best match
+    the tracked videos of a folder (with its videos.csv manifest), by a grid search, a Bayesian
+    search (Optuna), or both (then compared)."""
 
     videos: str = field(default="???", metadata={"doc": "folder of videos with a videos.csv manifest"})
     out: str = field(default="outputs/lab/calibration", metadata={"doc": "where tables, figures and best.json go"})
+    method: str = field(default="grid", metadata={"choices": ("grid", "optuna", "both")})
     restitutions: list[float] = field(default_factory=lambda: [0.3, 0.45, 0.6, 0.75, 0.9])
     frictions: list[float] = field(default_factory=lambda: [0.1, 0.2, 0.3, 0.4, 0.5])
     collision_weight: float = rng(1.0, 0.0, None, doc="weight of the collision-rate error beside the speed error")
+    repeats: int = rng(1, 1, None, doc="starts simulated per condition and pair, averaged (less noise)")
+    restitution_range: list[float] = field(default_factory=lambda: [0.3, 0.9],
+                                           metadata={"doc": "Optuna: [low, high] of the restitution"})
+    friction_range: list[float] = field(default_factory=lambda: [0.1, 0.5],
+                                        metadata={"doc": "Optuna: [low, high] of the friction"})
+    trials: int = rng(25, 1, None, doc="Optuna: pairs tried (the default grid has 25)")
+    batch: int = rng(5, 1, None, doc="Optuna: pairs simulated together in one launch")
+    startup_trials: int = rng(5, 1, None, doc="Optuna: random pairs before the TPE model takes over")
+    seed: int = rng(0, 0, None, doc="Optuna sampler seed (the search is reproducible)")
 
     def __post_init__(self):
+        for name, values in (("restitution_range", self.restitution_range), ("friction_range", self.friction_range)):
+            if len(values) != 2 or not values[0] < values[1]:
+                raise ConfigError(f"{name}={values}: give [low, high] with low < high")
         for name, values, lo_open, hi in (("restitutions", self.restitutions, True, 1.0),
-                                          ("frictions", self.frictions, False, None)):
+                                          ("frictions", self.frictions, False, None),
+                                          ("restitution_range", self.restitution_range, True, 1.0),
+                                          ("friction_range", self.friction_range, False, None)):
             if not values:
                 raise ConfigError(f"{name}=[] is empty: give at least one value")
             for i, v in enumerate(values):

@@ -51,6 +51,7 @@ class Condition:
     ball_diameter_m: float
     wall_restitution: float
     wall_friction: float
+    replicate: int = 0  # another start of the same condition (its place in the batch draws other velocities)
 
 
 def conditions(cfg: MM400Config, restitutions, frictions) -> list[Condition]:

@@ -14,7 +14,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from .config import DrumConfig, InteractionConfig, MaterialConfig
+from .config import ConfigError, DrumConfig, InteractionConfig, MaterialConfig
 from .dem import SystemSpec
 from .drum import drum_mesh, drum_speed_rpm
 
@@ -85,11 +85,15 @@ def run_liggghts(folder: Path, ranks: int) -> float:
     return int(atoms) * int(steps) / float(seconds)
 
 
+def require_liggghts() -> None:
+    if shutil.which("liggghts") is None:
+        raise ConfigError("peer=liggghts needs LIGGGHTS on the PATH (Debian: apt-get install liggghts)")
+
+
 def liggghts_rates(spec: SystemSpec, drum: DrumConfig, material: MaterialConfig, pair: InteractionConfig,
                    dt_s: float, settle_s: float, rotate_s: float, skin_m: float, ranks=(1, 2)) -> dict:
     """{'liggghts_1_ranks': particle-steps/s, ...} for the same drum."""
-    if shutil.which("liggghts") is None:
-        raise RuntimeError("--peer liggghts needs LIGGGHTS on the PATH (Debian: apt-get install liggghts)")
+    require_liggghts()
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
         write_case(Path(tmp), spec, drum, material, pair, dt_s, settle_s, rotate_s, skin_m)

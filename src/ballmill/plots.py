@@ -82,6 +82,20 @@ def plot_score_surface(surface: pd.DataFrame, best: dict):
     return fig
 
 
+def plot_score_history(trials: pd.DataFrame, grid_best: float | None = None):
+    """Score of each Optuna trial and the best so far (log scale), beside the grid's best."""
+    fig, ax = plt.subplots(figsize=(5.5, 3.5))
+    ax.semilogy(trials.trial, trials.score, "o", ms=4, color="0.6", label="trial")
+    ax.semilogy(trials.trial, trials.best_score, "-", color="C0", label="best so far")
+    if grid_best is not None:
+        ax.axhline(grid_best, color="C3", ls="--", lw=1, label="grid's best")
+    ax.set_xlabel("trial")
+    ax.set_ylabel("score (lower is better)")
+    ax.legend(frameon=False)
+    fig.tight_layout()
+    return fig
+
+
 def plot_lab_validation(simulated: pd.DataFrame, observed: pd.DataFrame | None = None):
     """Paper Fig. 3a: mean ball speed vs frequency per ball size and count; simulation lines,
     tracked videos as markers."""
