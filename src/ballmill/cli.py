@@ -185,8 +185,10 @@ def compose_command(name: str, overrides: list[str]) -> DictConfig:
 def run_command(args: list[str]) -> None:
     """Check every job of the run or sweep (no simulation), then hand the lot to Hydra's launcher."""
     from . import run as run_module
+    from .config import register
     from .jobs import check_jobs, failed_since
 
+    register()  # the schemas Hydra composes with, also when no check runs (--cfg, --info)
     overrides, flags, i = [], [], 0
     while i < len(args):
         if args[i] in HYDRA_VALUE_FLAGS and i + 1 < len(args):

@@ -39,8 +39,12 @@ from .walls import Walls
 
 log = logging.getLogger(__name__)
 
-GRID_MIN_PARTICLES = 8  # a replica with more particles than this searches a cell grid, not all pairs
-SERIAL_MAX_PARTICLES = 3000  # up to this many particles (one replica), whole steps run in one launch
+# A replica with more particles than this searches a cell grid; fewer (an MM400 jar holds 1-2
+# balls) test all pairs, which for a handful of balls costs less than binning them.
+GRID_MIN_PARTICLES = 8
+# Up to this many particles, whole steps run serially in one launch: a parallel loop costs
+# ~40-60 us to dispatch on a CPU, more than a whole step of a few thousand balls.
+SERIAL_MAX_PARTICLES = 3000
 DRIFT, POSE, PAIRS, FINISH = 1, 2, 4, 8  # phases of a step
 STEP = DRIFT | POSE | PAIRS | FINISH
 
