@@ -176,9 +176,8 @@ def compose_command(name: str, overrides: list[str]) -> DictConfig:
 
     for arg in overrides:
         if "=" not in arg:
-            key = {"report": "sweeps", "track": "video", "calibrate": "videos"}.get(name, "key")
-            raise ConfigError(f"{arg!r} is not key=value: options are Hydra overrides, e.g. {key}=[{arg}]"
-                              if key == "sweeps" else f"{arg!r} is not key=value, e.g. {key}={arg}")
+            example = {"report": "sweeps=[{}]", "track": "video={}", "calibrate": "videos={}"}.get(name, "key={}")
+            raise ConfigError(f"{arg!r} is not key=value: options are Hydra overrides, e.g. {example.format(arg)}")
     return compose(name, overrides)
 
 
