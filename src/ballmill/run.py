@@ -26,7 +26,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from . import __version__
 from .config import CONF_DIR
-from .files import read_json, write_json, write_text
+from .files import read_json, write_atomic, write_json, write_text
 from .scenario import load
 from .studies import plan
 
@@ -61,9 +61,7 @@ def run(cfg: DictConfig, out_dir: Path) -> dict:
 
 def write_record(record: dict, out_dir: Path) -> None:
     """record.parquet first, record.json (the mark of a finished job) last, each written whole."""
-    tmp = out_dir / ".record.parquet.tmp"
-    pd.DataFrame([record]).to_parquet(tmp, index=False)
-    os.replace(tmp, out_dir / "record.parquet")
+    write_atomic(out_dir / "record.parquet", lambda tmp: pd.DataFrame([record]).to_parquet(tmp, index=False))
     write_json(out_dir / RECORD, record)
 
 

@@ -10,6 +10,8 @@ import pickle
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..files import write_atomic
+
 log = logging.getLogger(__name__)
 
 
@@ -26,14 +28,14 @@ class Checkpoint:
         """Write the state atomically: a temporary file renamed over the last checkpoint."""
         payload = {"key": self.key, "label": label, "next_sample": next_sample, "engine": engine.state(),
                    "recorder": recorder.state()}
-        path = Path(self.path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp")
-        with open(tmp, "wb") as f:
-            pickle.dump(payload, f, protocol=pickle.HIGHEST_PROTOCOL)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
+
+        def dump(tmp: Path) -> None:
+            with open(tmp, "wb") as f:
+                pickle.dump(payload, f, protocol=pickle.HIGHEST_PROTOCOL)
+                f.flush()
+                os.fsync(f.fileno())
+
+        write_atomic(self.path, dump)
 
     def resume(self, engine, recorder, label: str) -> int:
         """Restore engine and recorder from the checkpoint if it is this run's: the sample to

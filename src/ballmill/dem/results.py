@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-import os
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from ..files import write_atomic
 
 TABLES = ("loads", "energy", "collisions", "trajectories")
 
@@ -61,11 +62,9 @@ class ParquetSink:
     def close(self, results: Results) -> None:
         """Each table to a temporary name, then renamed: jobs on other machines sharing a cache
         folder, or an interrupted one, never leave a half-written table."""
-        self.folder.mkdir(parents=True, exist_ok=True)
         for name in TABLES:
-            tmp = self.folder / f".{name}.{os.getpid()}.parquet.tmp"
-            getattr(results, name).to_parquet(tmp, index=False)
-            os.replace(tmp, self.folder / f"{name}.parquet")
+            table = getattr(results, name)
+            write_atomic(self.folder / f"{name}.parquet", lambda tmp, table=table: table.to_parquet(tmp, index=False))
 
 
 class Recorder:
