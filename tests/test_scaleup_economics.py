@@ -5,11 +5,13 @@ from dataclasses import replace
 
 import pytest
 
-from ballmill.config import ConfigError, EconomicsConfig, ScaleupConfig
-from ballmill.economics import bond_rowland_power_w, electricity, margin_usd_per_t_tpa, purchase_cost_usd, yield_percent
+from ballmill.config import ConfigError, EconomicsConfig, ScaleupConfig, YieldModelConfig
+from ballmill.economics import bond_rowland_power_w, electricity, margin_usd_per_t_tpa, purchase_cost_usd
 from ballmill.scaleup import design_mill, regional_pet_feed_kg_per_h, stoichiometric_naoh_kg_per_h
+from ballmill.yields import bpr_line_yield
 
 ECON = EconomicsConfig()
+LINE = YieldModelConfig()
 PAPER = ScaleupConfig(naoh_feed_kg_per_h=400.0)
 
 
@@ -43,12 +45,12 @@ def test_purchase_cost_reproduces_the_paper_within_one_percent():
 
 
 def test_yield_fit_is_capped_and_refuses_extrapolation_unless_allowed():
-    assert yield_percent(19, ECON) == (pytest.approx(74.87), False)
-    assert yield_percent(20, ECON)[0] == pytest.approx(81.25)
-    assert yield_percent(23, ECON)[0] == 100.0
+    assert bpr_line_yield(19, LINE) == (pytest.approx(74.87), False)
+    assert bpr_line_yield(20, LINE)[0] == pytest.approx(81.25)
+    assert bpr_line_yield(23, LINE)[0] == 100.0
     with pytest.raises(ConfigError, match=r"scaleup.bpr=25 .*\[10.0, 23.0\]"):
-        yield_percent(25, ECON)
-    assert yield_percent(25, replace(ECON, allow_yield_extrapolation=True)) == (100.0, True)
+        bpr_line_yield(25, LINE)
+    assert bpr_line_yield(25, replace(LINE, allow_extrapolation=True)) == (100.0, True)
 
 
 def test_margin_per_tonne_tpa_matches_the_paper_within_two_dollars():

@@ -108,7 +108,7 @@ def test_a_bad_value_in_any_job_refuses_the_whole_sweep_before_it_starts(tmp_pat
     assert proc.returncode == 2
     assert proc.stderr.strip().splitlines()[-1] == (
         "error: scaleup.bpr=30.0 is outside the yield fit's range [10.0, 23.0]; "
-        "set economics.allow_yield_extrapolation=true to extrapolate (job scaleup.bpr=30)")
+        "set yield_model.allow_extrapolation=true to extrapolate (job scaleup.bpr=30)")
     assert not list(tmp_path.iterdir())
 
 

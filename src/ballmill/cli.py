@@ -36,6 +36,7 @@ from .config import (
     ScaleupConfig,
     SimConfig,
     StudyConfig,
+    YieldModelConfig,
     to_object,
 )
 
@@ -115,7 +116,7 @@ class Command:
 
 
 RUN_GROUPS = (("sim", SimConfig), ("mill", DrumConfig), ("scaleup", ScaleupConfig), ("economics", EconomicsConfig),
-              ("lab", MM400Config), ("study", StudyConfig))
+              ("lab", MM400Config), ("study", StudyConfig), ("yield_model", YieldModelConfig))
 LAB_GROUPS = (("sim", SimConfig), ("lab", MM400Config))
 COMMANDS = {
     "run": Command("one scenario, or a sweep (-m, or +sweep=NAME from conf/sweep/)", None, RUN_GROUPS),

@@ -137,11 +137,6 @@ class EconomicsConfig:
     capacity_basis: str = field(default="pet", metadata={"choices": ("pet", "pet_plus_naoh")})
     cepci_base_year: int = rng(2005, 1950, 2100)
     cepci_target_year: int = rng(2022, 1950, 2100)
-    yield_slope_percent: float = 6.38
-    yield_intercept_percent: float = -46.35
-    yield_bpr_min: float = 10.0
-    yield_bpr_max: float = 23.0
-    allow_yield_extrapolation: bool = False
     prices_file: str = "prices.csv"
     cepci_file: str = "cepci.csv"
     molar_masses_file: str = "molar_masses.csv"
@@ -175,6 +170,59 @@ class MM400Config:
                 raise ConfigError(f"lab.{name}=[] is empty: give at least one value")
             for i, v in enumerate(values):
                 _check_field(f"lab.{name}[{i}]", v, {"range": (0.0, None, True, False)})
+
+
+@dataclass
+class KineticsLabConfig:
+    """The lab experiments behind the BPR line, as the lab DEM simulates them: an MM400 with
+    balls of one size, the BPR set by the powder mass.  Which of these the literature states
+    and which are assumed: data/yield_lab_conditions.csv."""
+
+    frequency_hz: float = rng(30.0, 0.0, None, lo_open=True)
+    balls_per_jar: int = rng(1, 1, 2)
+    ball_diameter_m: float = rng(0.0206, 0.0, None, lo_open=True)
+    jar_material: str = "steel"
+    bpr_basis: str = field(default="pet_plus_naoh", metadata={
+        "choices": ("pet_plus_naoh", "pet"), "doc": "the BPR's powder: PET + stoichiometric NaOH, or PET alone"})
+    duration_s: float = rng(3.0, 0.0, None, lo_open=True, doc="simulated milling (s)")
+    settle_s: float = rng(0.5, 0.0, None, doc="start-up left out of the dose rate (s)")
+    frequencies_hz: list[float] = field(default_factory=lambda: [25.0, 30.0], metadata={
+        "doc": "frequencies of the sensitivity run (the calibration's alternatives)"})
+    ball_diameters_m: list[float] = field(default_factory=lambda: [0.0176, 0.0206], metadata={
+        "doc": "ball sizes of the sensitivity run"})
+
+    def __post_init__(self):
+        for name in ("frequencies_hz", "ball_diameters_m"):
+            values = getattr(self, name)
+            if not values:
+                raise ConfigError(f"yield_model.lab.{name}=[] is empty: give at least one value")
+            for i, v in enumerate(values):
+                _check_field(f"yield_model.lab.{name}[{i}]", v, {"range": (0.0, None, True, False)})
+
+
+@dataclass
+class YieldModelConfig:
+    """TPA yield of the mill: the seed's BPR line, or yield from the collision dose per kg of
+    PET calibrated on the lab DEM (see README, "Yield from the mechanics")."""
+
+    rule: str = field(default="bpr_line", metadata={"choices": ("bpr_line", "specific_energy", "impact_threshold")})
+    bpr_slope_percent: float = 6.38
+    bpr_intercept_percent: float = -46.35
+    bpr_min: float = 10.0
+    bpr_max: float = 23.0
+    lab_time_min: float = rng(20.0, 0.0, None, lo_open=True, doc="milling time of the BPR line's experiments")
+    allow_extrapolation: bool = False
+    impact_threshold_j: float = rng(0.01, 0.0, None, lo_open=True,
+                                    doc="E*: collisions with a normal impact energy at least this count (J)")
+    mode: str = field(default="target_yield", metadata={
+        "choices": ("target_yield", "fixed_time"),
+        "doc": "energy rules: solve the residence time for the target, or keep scaleup.residence_time_min"})
+    target_yield_percent: float | None = rng(None, 0.0, 100.0, lo_open=True,
+                                             doc="null: the BPR line's yield at this BPR")
+    tolerance: float = rng(0.01, 0.0, 1.0, lo_open=True, doc="fixed point: relative change of the residence time")
+    max_iterations: int = rng(8, 1, None, doc="fixed point: DEM runs at most")
+    dose_batches: int = rng(10, 2, None, doc="averaging window split into this many batches for standard errors")
+    lab: KineticsLabConfig = field(default_factory=KineticsLabConfig)
 
 
 # The MM400 fields no source pins down (estimates): lab runs report them beside their results.
@@ -232,7 +280,7 @@ class StudyConfig:
     """What a run does (a pipeline of studies.STUDIES) and how its sweep is reported."""
 
     name: str = "design"
-    kind: str = field(default="design", metadata={"choices": ("design", "drum", "lab")})
+    kind: str = field(default="design", metadata={"choices": ("design", "drum", "lab", "yield_calibration")})
     observations: str | None = field(default=None, metadata={"doc": "observations.csv drawn beside a lab study"})
     report: StudyReport = field(default_factory=StudyReport)
 
@@ -300,6 +348,7 @@ def register() -> None:
     cs.store(group="economics", name="base_economics", node=EconomicsConfig)
     cs.store(group="lab", name="base_mm400", node=MM400Config)
     cs.store(group="study", name="base_study", node=StudyConfig)
+    cs.store(group="yield_model", name="base_yield_model", node=YieldModelConfig)
     for name, node in COMMANDS.items():
         cs.store(name=f"base_{name}", node=node)
 

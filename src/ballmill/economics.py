@@ -1,14 +1,13 @@
 """Costs of a mill (Anglou et al. 2023, Eq. 1-3) and the raw-material margin.
 
 Electricity: P x price x hours.  Purchase cost: C = a W^b (Seider, Seader, Lewin & Widagdo
-2004), W the capacity, escalated by CEPCI from the correlation's base year.  Yield:
-Y = 6.38 BPR - 46.35 % for 10 <= BPR <= 23 at 20 min (Tricker et al. 2022), capped at 100 %.
-Margin per tonne TPA: products (TPA, EG) less reactants (PET, NaOH, H2SO4) by stoichiometry.
+2004), W the capacity, escalated by CEPCI from the correlation's base year (the yield is the
+yield model's: yields.py).  Margin per tonne TPA: products (TPA, EG) less reactants (PET, NaOH, H2SO4) by stoichiometry.
 """
 
 from __future__ import annotations
 
-from .config import ConfigError, EconomicsConfig
+from .config import EconomicsConfig
 from .data import lookup
 
 SHORT_TON_KG = 907.18474
@@ -32,18 +31,6 @@ def purchase_cost_usd(pet_kg_per_h: float, naoh_kg_per_h: float, cfg: EconomicsC
     w = kg_per_h / (SHORT_TON_KG if cfg.capacity_unit == "short_ton_per_h" else 1000.0)
     base = cfg.cost_coefficient_usd * w**cfg.cost_exponent
     return base * cepci(cfg.cepci_target_year, cfg) / cepci(cfg.cepci_base_year, cfg)
-
-
-def yield_percent(bpr: float, cfg: EconomicsConfig) -> tuple[float, bool]:
-    """TPA yield (%) and whether BPR lies outside the fit's range (only when allowed)."""
-    outside = not cfg.yield_bpr_min <= bpr <= cfg.yield_bpr_max
-    if outside and not cfg.allow_yield_extrapolation:
-        raise ConfigError(
-            f"scaleup.bpr={bpr} is outside the yield fit's range [{cfg.yield_bpr_min}, {cfg.yield_bpr_max}]; "
-            "set economics.allow_yield_extrapolation=true to extrapolate"
-        )
-    y = cfg.yield_slope_percent * bpr + cfg.yield_intercept_percent
-    return min(max(y, 0.0), 100.0), outside
 
 
 def margin_usd_per_t_tpa(cfg: EconomicsConfig) -> dict:
@@ -77,16 +64,15 @@ def bond_rowland_power_w(diameter_m: float, ball_mass_kg: float, fill_fraction: 
     return 1000.0 * kwb * ball_mass_kg / 1000.0
 
 
-def evaluate(power_w: float, bpr: float, pet_kg_per_h: float, naoh_kg_per_h: float, cfg: EconomicsConfig) -> dict:
-    """All economic outputs of one mill as a flat record."""
-    y, extrapolated = yield_percent(bpr, cfg)
+def evaluate(power_w: float, yield_percent: float, pet_kg_per_h: float, naoh_kg_per_h: float,
+             cfg: EconomicsConfig) -> dict:
+    """All economic outputs of one mill as a flat record (the yield from the yield model)."""
     cost = purchase_cost_usd(pet_kg_per_h, naoh_kg_per_h, cfg)
     return {
         **electricity(power_w, pet_kg_per_h, cfg),
         "purchase_cost_usd": cost,
         "purchase_cost_usd_per_kg_per_h": cost / pet_kg_per_h,
-        "yield_percent": y, "yield_extrapolated": extrapolated,
-        "yield_capped": cfg.yield_slope_percent * bpr + cfg.yield_intercept_percent > 100.0,
+        "yield_percent": yield_percent,
         **margin_usd_per_t_tpa(cfg),
         "cepci_base": cepci(cfg.cepci_base_year, cfg), "cepci_target": cepci(cfg.cepci_target_year, cfg),
     }

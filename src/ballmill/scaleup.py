@@ -44,6 +44,7 @@ def critical_speed_rpm(mill_diameter_m: float, ball_diameter_m: float) -> float:
 class MillDesign:
     pet_feed_kg_per_h: float
     naoh_feed_kg_per_h: float
+    residence_time_min: float
     holdup_kg: float
     ball_mass_kg: float
     ball_count: int
@@ -85,7 +86,7 @@ def design_mill(cfg: ScaleupConfig) -> MillDesign:
                           f"D {diameter:.3g} m x L {length:.3g} m (at most a quarter of the smaller side)")
     n_crit = critical_speed_rpm(diameter, d_ball)
     return MillDesign(
-        pet_feed_kg_per_h=pet, naoh_feed_kg_per_h=naoh, holdup_kg=holdup,
+        pet_feed_kg_per_h=pet, naoh_feed_kg_per_h=naoh, residence_time_min=cfg.residence_time_min, holdup_kg=holdup,
         ball_mass_kg=ball_mass, ball_count=max(1, round(ball_mass / one_ball)), ball_radius_m=cfg.ball_radius_m,
         mill_volume_m3=volume, diameter_m=diameter, length_m=length, speed_rpm=cfg.speed_rpm,
         critical_speed_rpm=n_crit, fraction_of_critical=cfg.speed_rpm / n_crit,

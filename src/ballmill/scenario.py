@@ -27,6 +27,7 @@ from .config import (
     ScaleupConfig,
     SimConfig,
     StudyConfig,
+    YieldModelConfig,
     material_tables,
     one_line,
     register,
@@ -74,6 +75,7 @@ class Scenario:
     scaleup: ScaleupConfig
     economics: EconomicsConfig
     lab: MM400Config
+    yield_model: YieldModelConfig
     materials: dict[str, MaterialConfig]
     interactions: dict[str, InteractionConfig]
     cache_dir: Path
@@ -85,7 +87,8 @@ def load(cfg: DictConfig) -> Scenario:
         study=to_object(cfg.study, StudyConfig, "study"), sim=to_object(cfg.sim, SimConfig, "sim"),
         mill=to_object(cfg.mill, DrumConfig, "mill"), scaleup=to_object(cfg.scaleup, ScaleupConfig, "scaleup"),
         economics=to_object(cfg.economics, EconomicsConfig, "economics"),
-        lab=to_object(cfg.lab, MM400Config, "lab"), materials=materials, interactions=interactions,
+        lab=to_object(cfg.lab, MM400Config, "lab"),
+        yield_model=to_object(cfg.yield_model, YieldModelConfig, "yield_model"), materials=materials, interactions=interactions,
         cache_dir=Path(cfg.cache_dir),
     )
 

@@ -12,6 +12,7 @@ config.StudyConfig.kind.
 from __future__ import annotations
 
 import logging
+import math
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -19,12 +20,23 @@ from pathlib import Path
 
 from .config import MM400_GEOMETRY, ConfigError, DrumConfig, SimConfig
 from .dem import SimulationError, SystemSpec
-from .drum import dem_key, drum_spec, simulate_drum
-from .economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd, yield_percent
+from .dose import dose_j_per_kg, dose_rates, with_basis
+from .drum import DrumRun, ball_count, dem_key, drum_spec, simulate_drum
+from .economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
 from .lab import conditions, mm400_spec, simulate_mm400, summarise, wall_interaction
+from .lab_dose import (
+    calibration_folder,
+    calibration_key,
+    kinetics_mills,
+    lab_dose_line,
+    lab_rates,
+    lab_sim,
+    simulate_kinetics_lab,
+)
 from .plots import plot_bed, plot_drum_loads, save_figure
 from .scaleup import design_mill
 from .scenario import Scenario, time_step_s
+from .yields import MEASURE, bpr_line_yield, fit_dose_line, line_yield, solve_residence_time
 
 log = logging.getLogger(__name__)
 DT_WARN_FRACTION = 0.4  # LIGGGHTS and EDEM advise 20-40 % of the Rayleigh step; warn above
@@ -75,53 +87,120 @@ def cuda_available() -> bool:
     return bool(is_arch_supported(ti.cuda))
 
 
-def plan_drum(s: Scenario, drum: DrumConfig | None = None, record: dict | None = None, economics=None) -> Plan:
-    """The drum DEM (cached by dem_key under cache_dir) and its figures; economics if a design."""
-    drum = drum or s.mill
-    sim = s.sim
+def check_window(sim: SimConfig) -> None:
+    """An averaging window with samples in it."""
     if sim.steady_after_s >= sim.duration_s:
         raise ConfigError(f"sim.steady_after_s={sim.steady_after_s} leaves no samples to average in "
                           f"sim.duration_s={sim.duration_s}: make it shorter than the duration")
     if sim.sample_every_s > (sim.duration_s - sim.steady_after_s) / MIN_SAMPLES:
         raise ConfigError(f"sim.sample_every_s={sim.sample_every_s} gives fewer than {MIN_SAMPLES} samples in the "
                           f"averaging window of {sim.duration_s - sim.steady_after_s:g} s: sample more often")
-    check_numerics(drum_spec(drum, s.materials, s.interactions, sim), sim, "mill")
-    dem_dir = s.cache_dir / "dem" / dem_key(drum, s.materials, s.interactions, sim)
 
-    def execute(out_dir: Path) -> dict:
-        check_machine(sim)
-        run = simulate_drum(drum, s.materials, s.interactions, sim, dem_dir)
-        out = {f"dem_{k}": v for k, v in run.summary.items()} | {"dem_dir": str(dem_dir)}
+
+def run_drum(s: Scenario, drum: DrumConfig, out_dir: Path | None = None) -> tuple[DrumRun, Path]:
+    """The drum's DEM (cached by dem_key under cache_dir); its tables and figures into out_dir."""
+    check_numerics(drum_spec(drum, s.materials, s.interactions, s.sim), s.sim, "mill")
+    dem_dir = s.cache_dir / "dem" / dem_key(drum, s.materials, s.interactions, s.sim)
+    check_machine(s.sim)
+    run = simulate_drum(drum, s.materials, s.interactions, s.sim, dem_dir)
+    if out_dir is not None:
         run.results.loads.to_csv(out_dir / "loads.csv", index=False)
-        save_figure(plot_drum_loads(run.results.loads, steady_after_s=sim.settle_s + sim.steady_after_s),
+        save_figure(plot_drum_loads(run.results.loads, steady_after_s=run.summary["averaging_from_s"]),
                     out_dir / "drum_loads")
         if len(run.results.trajectories):
             save_figure(plot_bed(run.results.trajectories, drum.ball_radius_m, drum.inner_diameter_m / 2),
                         out_dir / "bed")
-        if economics:
-            out |= economics(run.summary["power_w"])
-        return out
+    return run, dem_dir
 
-    return Plan(record or {}, execute)
+
+def drum_record(run: DrumRun, dem_dir: Path) -> dict:
+    return {f"dem_{k}": v for k, v in run.summary.items()} | {"dem_dir": str(dem_dir)}
+
+
+def run_dose(run: DrumRun, mass_kg: float, s: Scenario) -> dict:
+    """Dose rates of a drum run per kg of `mass_kg`, over its averaging window."""
+    return dose_rates(run.results.collisions, run.summary["averaging_from_s"], run.summary["simulated_s"], mass_kg,
+                      s.yield_model.impact_threshold_j, s.yield_model.dose_batches)
+
+
+def plan_drum(s: Scenario) -> Plan:
+    """The mill group's drum as configured: torque, power, and dose rates per kg of balls."""
+    check_window(s.sim)
+    check_numerics(drum_spec(s.mill, s.materials, s.interactions, s.sim), s.sim, "mill")
+
+    def execute(out_dir: Path) -> dict:
+        run, dem_dir = run_drum(s, s.mill, out_dir)
+        one_ball = s.materials[s.mill.ball_material].density_kg_per_m3 * 4 / 3 * math.pi * s.mill.ball_radius_m**3
+        return drum_record(run, dem_dir) | with_basis(run_dose(run, ball_count(s.mill) * one_ball, s), "balls")
+
+    return Plan({}, execute)
+
+
+def mill_drum(s: Scenario, design) -> DrumConfig:
+    return replace(s.mill, inner_diameter_m=design.diameter_m, inner_length_m=design.length_m,
+                   ball_radius_m=design.ball_radius_m, ball_count=design.ball_count, speed_rpm=design.speed_rpm)
 
 
 def plan_design(s: Scenario) -> Plan:
-    """Scale-up of the feed to a mill, whose DEM power gives the electricity; costs and margin."""
-    scale, econ = s.scaleup, s.economics
-    yield_percent(scale.bpr, econ)  # an out-of-range BPR is refused here
+    """Scale-up of the feed to a mill, whose DEM gives the power and the collision dose; the
+    yield model's yield (under an energy rule with a target, the residence time that reaches
+    it); costs and margin."""
+    scale, econ, model = s.scaleup, s.economics, s.yield_model
+    check_window(s.sim)
+    line_y, extrapolated = bpr_line_yield(scale.bpr, model)  # an out-of-range BPR is refused here
     design = design_mill(scale)
     purchase_cost_usd(design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, econ)  # the data tables exist
     margin_usd_per_t_tpa(econ)
-    drum = replace(s.mill, inner_diameter_m=design.diameter_m, inner_length_m=design.length_m,
-                   ball_radius_m=design.ball_radius_m, ball_count=design.ball_count, speed_rpm=design.speed_rpm)
+    check_numerics(drum_spec(mill_drum(s, design), s.materials, s.interactions, s.sim), s.sim, "mill")
+    record = {"bpr": scale.bpr, "region": scale.region, "shape_rule": scale.shape_rule, "yield_rule": model.rule,
+              "bpr_line_yield_percent": line_y, "yield_extrapolated": extrapolated}
+    line = None if model.rule == "bpr_line" else lab_dose_line(s)  # refused until the lab is calibrated
+    target = None
+    if line is not None:
+        record |= line.as_record() | {"yield_mode": model.mode}
+        if model.mode == "target_yield":
+            target = model.target_yield_percent or line_y
+            record |= {"target_yield_percent": target, "target_dose_kj_per_kg_pet": line.dose_for(target) / 1e3}
 
-    def economics(power_w: float) -> dict:
-        return evaluate(power_w, scale.bpr, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, econ) | {
-            "bond_rowland_power_w": bond_rowland_power_w(design.diameter_m, design.ball_mass_kg, scale.fill_fraction,
-                                                         design.fraction_of_critical, 2 * design.ball_radius_m)}
+    def evaluate_mill(design, run: DrumRun) -> dict:
+        pet_kg = design.pet_feed_kg_per_h * design.residence_time_min / 60
+        rates = run_dose(run, pet_kg, s)
+        minutes = design.residence_time_min
+        doses = {f"{m.removesuffix('_power_w_per_kg')}_dose_kj_per_kg_pet": dose_j_per_kg(rates[m], minutes) / 1e3
+                 for m in ("collision_power_w_per_kg", "impact_power_w_per_kg")}
+        y = line_y if line is None else line.yield_percent(dose_j_per_kg(rates[line.measure], minutes))
+        return {**design.as_record(), **with_basis(rates, "pet"), **doses,
+                **evaluate(run.summary["power_w"], y, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, econ),
+                "yield_capped": line is None and line_yield(scale.bpr, model) > 100.0,
+                "bond_rowland_power_w": bond_rowland_power_w(design.diameter_m, design.ball_mass_kg,
+                                                             scale.fill_fraction, design.fraction_of_critical,
+                                                             2 * design.ball_radius_m)}
 
-    record = {"bpr": scale.bpr, "region": scale.region, "shape_rule": scale.shape_rule, **design.as_record()}
-    return plan_drum(s, drum, record, economics)
+    def execute(out_dir: Path) -> dict:
+        if target is None:
+            run, dem_dir = run_drum(s, mill_drum(s, design), out_dir)
+            return drum_record(run, dem_dir) | evaluate_mill(design, run)
+        mills = {}
+
+        def rate_at(tau_min: float) -> tuple[float, float]:
+            d = design_mill(replace(scale, residence_time_min=tau_min))
+            run, dem_dir = run_drum(s, mill_drum(s, d))
+            mills[tau_min] = d, dem_dir
+            rates = run_dose(run, d.pet_feed_kg_per_h * tau_min / 60, s)
+            return rates[line.measure], rates[f"{line.measure}_se"]
+
+        fp = solve_residence_time(scale.residence_time_min, line.dose_for(target), rate_at, model.tolerance,
+                                  model.max_iterations)
+        final, _ = mills[fp.residence_time_min]
+        run, dem_dir = run_drum(s, mill_drum(s, final), out_dir)  # cached: the figures of the final mill
+        log.info("residence time %.4g min after %d DEM runs: %s", fp.residence_time_min, fp.iterations,
+                 ", ".join(f"{t:.4g}" for t in fp.history_min))
+        return drum_record(run, dem_dir) | evaluate_mill(final, run) | {
+            "residence_time_se_min": fp.se_min, "fixed_point_iterations": fp.iterations,
+            "fixed_point_dose_miss": fp.miss,
+            "fixed_point_history_min": " ".join(f"{t:.6g}" for t in fp.history_min)}
+
+    return Plan(record, execute)
 
 
 def plan_lab(s: Scenario) -> Plan:
@@ -150,7 +229,34 @@ def plan_lab(s: Scenario) -> Plan:
                  "observations": s.study.observations}, execute)
 
 
-STUDIES: dict[str, Callable[[Scenario], Plan]] = {"design": plan_design, "drum": plan_drum, "lab": plan_lab}
+def plan_yield_calibration(s: Scenario) -> Plan:
+    """The lab DEM of the kinetics experiments (lab_dose.py): dose rates per condition, the dose
+    lines at the nominal one, and how far each alternative moves the lab dose rate (an energy
+    rule's residence time scales with it)."""
+    model = s.yield_model
+    for cfg, conds in kinetics_mills(s):
+        check_numerics(mm400_spec(cfg, conds, s.materials, s.interactions, lab_sim(s)), lab_sim(s), "lab")
+
+    def execute(out_dir: Path) -> dict:
+        check_machine(s.sim)
+        simulate_kinetics_lab(s)
+        rates = lab_rates(s, model.impact_threshold_j)
+        nominal = rates.query("nominal").iloc[0]
+        out = {"calibration_dir": str(calibration_folder(s)), "impact_threshold_j": model.impact_threshold_j}
+        for rule, measure in MEASURE.items():
+            rates[f"{measure}_relative"] = rates[measure] / nominal[measure]
+            line = fit_dose_line(measure, float(nominal[measure]), float(nominal[f"{measure}_se"]), model)
+            out |= {f"{rule}_{k}": v for k, v in line.as_record().items()}
+        rates.to_csv(out_dir / "lab_dose.csv", index=False)
+        return out
+
+    return Plan({"lab_frequency_hz": model.lab.frequency_hz, "lab_balls": model.lab.balls_per_jar,
+                 "lab_ball_diameter_m": model.lab.ball_diameter_m, "lab_jar_material": model.lab.jar_material,
+                 "bpr_basis": model.lab.bpr_basis, "calibration_key": calibration_key(s)}, execute)
+
+
+STUDIES: dict[str, Callable[[Scenario], Plan]] = {"design": plan_design, "drum": plan_drum, "lab": plan_lab,
+                                                   "yield_calibration": plan_yield_calibration}
 
 
 def plan(s: Scenario) -> Plan:

@@ -1,0 +1,161 @@
+"""TPA yield of a mill: the seed's BPR line, or yield from the collision dose per kg of PET.
+
+bpr_line:         Y = s BPR + c (the seed's lab fit, 20 min), the same in every mill.
+specific_energy:  Y = a + b D, D = the energy dissipated in all collisions per kg of PET over
+                  the residence time (J/kg);
+impact_threshold: the same with only the collisions whose impact energy is at least E*.
+a and b come from the lab DEM (`study=yield_calibration`): the lab mill's dose rate at each BPR
+of the line (the BPR set by the powder mass, so the DEM, which holds no powder, is the same at
+every BPR) and the line's yield there.  Both are linear in the BPR, so the fit is exact and
+b carries the lab dose rate's standard error.  Under an energy rule a design either fixes the
+residence time and reports the yield, or solves the residence time that gives a target yield
+(a fixed point: the residence time sizes the mill, whose DEM gives the dose rate).
+All yields are capped to [0, 100] %.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .config import ConfigError, YieldModelConfig
+from .data import lookup
+from .dose import dose_j_per_kg
+
+
+class NotConverged(RuntimeError):
+    """The residence time's fixed point failed (no dose, or no settling within the iterations)."""
+
+
+MEASURE = {"specific_energy": "collision_power_w_per_kg", "impact_threshold": "impact_power_w_per_kg"}
+MAX_STEP = math.log(3.0)  # the residence time changes at most threefold per DEM run (bounds the mills tried)
+LINE_POINTS = 27  # BPR points of the line the dose fit uses (half-unit steps over 10-23)
+
+
+def line_yield(bpr: float, cfg: YieldModelConfig) -> float:
+    """The BPR line, uncapped (%)."""
+    return cfg.bpr_slope_percent * bpr + cfg.bpr_intercept_percent
+
+
+def bpr_line_yield(bpr: float, cfg: YieldModelConfig) -> tuple[float, bool]:
+    """The seed's yield (%), capped, and whether the BPR lies outside the fit (only when allowed)."""
+    outside = not cfg.bpr_min <= bpr <= cfg.bpr_max
+    if outside and not cfg.allow_extrapolation:
+        raise ConfigError(f"scaleup.bpr={bpr} is outside the yield fit's range [{cfg.bpr_min}, {cfg.bpr_max}]; "
+                          "set yield_model.allow_extrapolation=true to extrapolate")
+    return cap(line_yield(bpr, cfg)), outside
+
+
+def cap(y: float) -> float:
+    return min(max(y, 0.0), 100.0)
+
+
+def pet_fraction(basis: str) -> float:
+    """PET's share of the powder a BPR is counted on: PET + stoichiometric NaOH (2 mol per repeat
+    unit), or PET alone."""
+    if basis == "pet":
+        return 1.0
+    pet = lookup("molar_masses.csv", "species", "pet_repeat_unit", "molar_mass_g_per_mol")
+    naoh = lookup("molar_masses.csv", "species", "naoh", "molar_mass_g_per_mol")
+    return pet / (pet + 2 * naoh)
+
+
+@dataclass(frozen=True)
+class DoseLine:
+    """Y = a + b D (%, D in J per kg of PET), fitted on the lab DEM for one dose measure."""
+
+    measure: str
+    a_percent: float
+    b_percent_per_j_per_kg: float
+    b_se: float
+    lab_rate_w_per_kg_balls: float
+    lab_rate_se: float
+
+    def yield_percent(self, dose_j_per_kg: float) -> float:
+        return cap(self.a_percent + self.b_percent_per_j_per_kg * dose_j_per_kg)
+
+    def dose_for(self, target_percent: float) -> float:
+        """The dose (J/kg PET) that gives the target yield."""
+        if target_percent <= self.a_percent:
+            raise ConfigError(f"yield_model.target_yield_percent={target_percent} is at or below the dose line's "
+                              f"intercept {self.a_percent:.3g} %: any dose gives it")
+        return (target_percent - self.a_percent) / self.b_percent_per_j_per_kg
+
+    def as_record(self) -> dict:
+        return {"yield_measure": self.measure, "yield_a_percent": self.a_percent,
+                "yield_b_percent_per_kj_per_kg": 1e3 * self.b_percent_per_j_per_kg,
+                "yield_b_se_percent_per_kj_per_kg": 1e3 * self.b_se,
+                "lab_rate_w_per_kg_balls": self.lab_rate_w_per_kg_balls, "lab_rate_se_w_per_kg_balls": self.lab_rate_se}
+
+
+def fit_dose_line(measure: str, lab_rate_w_per_kg_balls: float, lab_rate_se: float, cfg: YieldModelConfig) -> DoseLine:
+    """The BPR line re-expressed against the lab dose: at BPR B the jar holds m_balls / B of powder,
+    PET a fraction f of it, so the dose per kg PET in lab_time_min is rate * B / f * t."""
+    if lab_rate_w_per_kg_balls <= 0:
+        raise ConfigError(f"yield_model: the lab DEM gives no dose for {measure} (at E* = {cfg.impact_threshold_j} J, "
+                          "no lab collision reaches it): lower yield_model.impact_threshold_j")
+    bpr = np.linspace(cfg.bpr_min, cfg.bpr_max, LINE_POINTS)
+    y = line_yield(bpr, cfg)
+    keep = (y > 0) & (y <= 100)
+    dose = dose_j_per_kg(lab_rate_w_per_kg_balls * bpr[keep] / pet_fraction(cfg.lab.bpr_basis), cfg.lab_time_min)
+    b, a = np.polyfit(dose, y[keep], 1)
+    return DoseLine(measure, float(a), float(b), float(b * lab_rate_se / lab_rate_w_per_kg_balls),
+                    lab_rate_w_per_kg_balls, lab_rate_se)
+
+
+@dataclass
+class FixedPoint:
+    """The residence time that gives the target dose in the mill it sizes."""
+
+    residence_time_min: float
+    iterations: int
+    history_min: list[float] = field(default_factory=list)
+    se_min: float = 0.0  # from the standard error of its dose rate
+    miss: float = 0.0  # its dose / the target - 1
+
+
+def solve_residence_time(start_min: float, dose_target_j_per_kg: float, rate_at: Callable[[float], tuple[float, float]],
+                         tolerance: float, max_iterations: int) -> FixedPoint:
+    """tau = D / r(tau): r(tau) (W/kg PET, with its standard error) is the DEM of the mill that tau
+    sizes.  On log tau: a plain step first, then secant steps (each at most threefold up or down,
+    so that a far first guess does not ask for a huge mill), and once the root is bracketed,
+    regula falsi inside the bracket (a DEM's rate is a rough function of the mill).  It stops when
+    the next tau moves by less than `tolerance` (relative), or the bracket is that narrow; the
+    answer is the simulated tau closest to its own fixed point."""
+    tried: list[tuple[float, float, float, float]] = []  # (log tau, log(next tau / tau), relative se, tau)
+    for k in range(1, max_iterations + 1):
+        tau = start_min if not tried else math.exp(next_log_tau(tried))
+        rate, se = rate_at(tau)
+        if not rate > 0:
+            raise NotConverged(f"yield_model: the mill at {tau:.4g} min gives no dose (rate {rate} W/kg PET): no "
+                               "collision there reaches the threshold; lower yield_model.impact_threshold_j")
+        tried.append((math.log(tau), math.log(dose_target_j_per_kg / dose_j_per_kg(rate, tau)), se / rate, tau))
+        above = [t for t in tried if t[1] > 0]
+        below = [t for t in tried if t[1] <= 0]
+        narrow = above and below and abs(max(above)[0] - min(below)[0]) < math.log1p(tolerance)
+        if abs(math.expm1(tried[-1][1])) < tolerance or narrow:
+            best = min(tried, key=lambda t: abs(t[1]))
+            return FixedPoint(best[3], k, [t[3] for t in tried], best[3] * best[2], math.expm1(-best[1]))
+    raise NotConverged(f"yield_model: the residence time did not settle in {max_iterations} DEM runs (min: "
+                       f"{', '.join(f'{t[3]:.4g}' for t in tried)}); raise yield_model.max_iterations or "
+                       "yield_model.tolerance")
+
+
+def next_log_tau(tried: list[tuple[float, float, float, float]]) -> float:
+    """The next log tau to simulate: regula falsi inside the bracket (kept off its ends), else a
+    secant or plain step, capped."""
+    above = [t for t in tried if t[1] > 0]  # f > 0: the dose falls short, the root lies higher
+    below = [t for t in tried if t[1] <= 0]
+    if above and below:
+        (x0, f0, *_), (x1, f1, *_) = max(above), min(below)
+        share = min(0.9, max(0.1, f0 / (f0 - f1)))
+        return x0 + share * (x1 - x0)
+    x, f, *_ = tried[-1]
+    step = f
+    if len(tried) > 1 and tried[-2][1] != f:
+        secant = -f * (x - tried[-2][0]) / (f - tried[-2][1])
+        step = secant if secant * f > 0 else f  # a secant that turns back is noise: take the plain step
+    return x + max(-MAX_STEP, min(MAX_STEP, step))
