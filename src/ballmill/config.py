@@ -222,6 +222,8 @@ class YieldModelConfig:
     tolerance: float = rng(0.01, 0.0, 1.0, lo_open=True, doc="fixed point: relative change of the residence time")
     max_iterations: int = rng(8, 1, None, doc="fixed point: DEM runs at most")
     dose_batches: int = rng(10, 2, None, doc="averaging window split into this many batches for standard errors")
+    run_lab_calibration: bool = field(default=False, metadata={
+        "doc": "energy rules: run the lab calibration (about a minute) when it is missing, instead of refusing"})
     lab: KineticsLabConfig = field(default_factory=KineticsLabConfig)
 
 

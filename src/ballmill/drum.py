@@ -30,7 +30,7 @@ from .dem import (
     init_taichi,
 )
 from .dem.vtk import VtkWriter
-from .files import read_json, write_json
+from .files import exclusive, read_json, write_json
 from .impacts import impact_statistics
 from .scaleup import critical_speed_rpm
 from .scenario import engine_materials, engine_options, time_step_s
@@ -174,16 +174,24 @@ def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
 
 def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out_dir: Path) -> DrumRun:
     """Run the drum DEM (or reuse the finished run in out_dir, a cache entry) and summarise
-    torque and power; the tables go to out_dir as Parquet (and VTK files when asked)."""
+    torque and power; the tables go to out_dir as Parquet (and VTK files when asked).  Two jobs
+    asking for the same entry at once: the second waits for the first and reuses its result."""
     out_dir = Path(out_dir)
     summary_path = out_dir / "dem_summary.json"
     key = dem_key(drum, materials, interactions, sim)
-    cached = read_json(summary_path)
-    if cached is not None and cached.get("key") == key:
-        log.info("reusing the DEM result in %s", out_dir)
-        return DrumRun(cached, Results.read(out_dir))
-    if summary_path.exists():
-        log.warning("%s: unreadable or of another run: running it again", summary_path)
+    with exclusive(out_dir / ".lock"):
+        cached = read_json(summary_path)
+        if cached is not None and cached.get("key") == key:
+            log.info("reusing the DEM result in %s", out_dir)
+            return DrumRun(cached, Results.read(out_dir))
+        if summary_path.exists():
+            log.warning("%s: unreadable or of another run: running it again", summary_path)
+        return run_drum_dem(drum, materials, interactions, sim, out_dir, key)
+
+
+def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_dir: Path, key: str) -> DrumRun:
+    """The drum DEM itself, written into the cache entry out_dir (see simulate_drum)."""
+    summary_path = out_dir / "dem_summary.json"
     spec = drum_spec(drum, materials, interactions, sim)
     dt = time_step_s(spec, sim)
     init_taichi(sim.arch, sim.precision, sim.threads, sim.seed)

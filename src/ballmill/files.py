@@ -1,5 +1,6 @@
 """Files written whole or not at all: a temporary name in the same folder, then a rename, so
-an interrupted job never leaves a half-written record or cache entry that looks finished."""
+an interrupted job never leaves a half-written record or cache entry that looks finished; and
+a lock so that two jobs needing the same cache entry compute it once."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import json
 import os
 import tempfile
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -40,3 +42,19 @@ def read_json(path: str | Path) -> dict | None:
     except (OSError, ValueError):
         return None
     return obj if isinstance(obj, dict) else None
+
+
+@contextmanager
+def exclusive(path: str | Path):
+    """Hold an advisory lock on the file `path` (created) for the block: another process asking
+    for it waits until this one is done (or dies), so a cache entry is computed once."""
+    import fcntl
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)

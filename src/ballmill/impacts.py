@@ -36,13 +36,19 @@ def impact_statistics(collisions: pd.DataFrame, after_s: float, until_s: float, 
     return out
 
 
-def energy_spectrum(collisions: pd.DataFrame, after_s: float, column: str = "impact_energy_j") -> pd.DataFrame:
-    """Histogram on log bins per pair type: bin edges (J), count, fraction and cumulative fraction."""
+def energy_spectrum(collisions: pd.DataFrame, after_s: float, column: str = "impact_energy_j",
+                    weight: str | None = None) -> pd.DataFrame:
+    """Histogram on log bins per pair type: bin edges (J), count, fraction and cumulative fraction
+    (of the collisions, or of the sum of column `weight`, e.g. the energy dissipated)."""
     c = collisions[collisions.t_start_s > after_s]
     rows = []
     for tag, g in c.groupby(pair_type(c)) if len(c) else ():
         counts, _ = np.histogram(g[column], ENERGY_BINS_J)
-        frac = counts / max(len(g), 1)
+        if weight:
+            sums, _ = np.histogram(g[column], ENERGY_BINS_J, weights=g[weight])
+            frac = sums / max(float(g[weight].sum()), 1e-300)
+        else:
+            frac = counts / max(len(g), 1)
         rows.append(pd.DataFrame({"pair_type": tag, "energy_lo_j": ENERGY_BINS_J[:-1], "energy_hi_j": ENERGY_BINS_J[1:],
                                   "count": counts, "fraction": frac, "cumulative_fraction": np.cumsum(frac)}))
     return pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(

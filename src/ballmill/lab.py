@@ -58,6 +58,11 @@ def conditions(cfg: MM400Config, restitutions, frictions) -> list[Condition]:
     return [Condition(*c) for c in itertools.product(cfg.frequencies_hz, cfg.ball_diameters_m, restitutions, frictions)]
 
 
+def jar_ball_mass_kg(cfg: MM400Config, ball_diameter_m: float, materials) -> float:
+    """Mass of the balls in one jar (kg)."""
+    return cfg.balls_per_jar * materials[cfg.ball_material].density_kg_per_m3 * math.pi / 6 * ball_diameter_m**3
+
+
 def wall_interaction(interactions: dict[str, InteractionConfig], cfg: MM400Config) -> InteractionConfig:
     """The ball-wall entry of an 'a-b' keyed interaction table (either order)."""
     for key in (f"{cfg.ball_material}-{cfg.wall_material}", f"{cfg.wall_material}-{cfg.ball_material}"):

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -21,8 +20,8 @@ import pandas as pd
 
 from .config import MM400_GEOMETRY, ConfigError, SimConfig
 from .dose import dose_rates
-from .files import read_json, write_atomic, write_json
-from .lab import conditions, simulate_mm400, wall_interaction
+from .files import exclusive, read_json, write_atomic, write_json
+from .lab import conditions, jar_ball_mass_kg, simulate_mm400, wall_interaction
 from .scenario import Scenario
 from .yields import MEASURE, DoseLine, fit_dose_line
 
@@ -61,14 +60,23 @@ def kinetics_mills(s: Scenario):
         yield cfg, conditions(cfg, [pair.restitution], [pair.static_friction])
 
 
+def calibrated(s: Scenario) -> bool:
+    """Whether the lab calibration of these conditions exists."""
+    return read_json(calibration_folder(s) / "calibration.json") is not None
+
+
 def simulate_kinetics_lab(s: Scenario) -> Path:
     """Run the lab DEM (unless its folder holds the finished result) and keep it; the folder."""
     folder = calibration_folder(s)
-    if (folder / "calibration.json").exists():
-        return folder
-    folder.mkdir(parents=True, exist_ok=True)
+    with exclusive(folder / ".lock"):  # another job computing it: wait, then reuse
+        if not calibrated(s):
+            run_kinetics_lab(s, folder)
+    return folder
+
+
+def run_kinetics_lab(s: Scenario, folder: Path) -> None:
+    """The lab DEM of every condition, its tables written into `folder`."""
     k = s.yield_model.lab
-    density = s.materials[s.lab.ball_material].density_kg_per_m3
     rows, logs = [], []
     for cfg, conds in kinetics_mills(s):
         _, collisions = simulate_mm400(cfg, conds, s.materials, s.interactions, lab_sim(s))
@@ -76,15 +84,14 @@ def simulate_kinetics_lab(s: Scenario) -> Path:
             replica = len(rows)
             rows.append({"replica": replica, "balls": cfg.balls_per_jar, "frequency_hz": c.frequency_hz,
                          "ball_diameter_m": c.ball_diameter_m,
-                         "ball_mass_kg": cfg.balls_per_jar * density * math.pi / 6 * c.ball_diameter_m**3,
+                         "ball_mass_kg": jar_ball_mass_kg(cfg, c.ball_diameter_m, s.materials),
                          "nominal": (cfg.balls_per_jar, c.frequency_hz, c.ball_diameter_m)
                          == (k.balls_per_jar, k.frequency_hz, k.ball_diameter_m)})
             logs.append(collisions[collisions.replica == i].assign(replica=replica))
     write_atomic(folder / "collisions.parquet", lambda tmp: pd.concat(logs).to_parquet(tmp, index=False))
-    pd.DataFrame(rows).to_csv(folder / "conditions.csv", index=False)
+    write_atomic(folder / "conditions.csv", lambda tmp: pd.DataFrame(rows).to_csv(tmp, index=False))
     write_json(folder / "calibration.json", {"key": calibration_key(s), "lab": asdict(k), "settle_s": k.settle_s,
                                              "duration_s": k.duration_s, "sim": asdict(lab_sim(s))})
-    return folder
 
 
 def lab_rates(s: Scenario, threshold_j: float) -> pd.DataFrame:
@@ -94,7 +101,7 @@ def lab_rates(s: Scenario, threshold_j: float) -> pd.DataFrame:
     if meta is None:
         raise ConfigError(f"yield_model.rule={s.yield_model.rule}: no lab calibration for these yield_model.lab "
                           f"conditions in {folder}: run `ballmill run study=yield_calibration` (with the same "
-                          "yield_model.* and lab.* overrides) first")
+                          "yield_model.* and lab.* overrides) first, or set yield_model.run_lab_calibration=true")
     conds = pd.read_csv(folder / "conditions.csv")
     collisions = pd.read_parquet(folder / "collisions.parquet")
     rows = [c | dose_rates(collisions[collisions.replica == c["replica"]], meta["settle_s"], meta["duration_s"],

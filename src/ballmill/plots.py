@@ -166,5 +166,56 @@ def plot_bed(trajectories: pd.DataFrame, radius_m: float, drum_radius_m: float):
     return fig
 
 
+def plot_scaleup_rule(table: pd.DataFrame):
+    """Residence time, purchase cost and electricity per tonne of PET against BPR, one line per
+    yield rule (`rule` column)."""
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    panels = [("residence_time_min", "residence time (min)"), ("purchase_cost_usd", "mill purchase cost ($)"),
+              ("electricity_usd_per_t_pet", "electricity ($/t PET)")]
+    for k, (rule, g) in enumerate(table.sort_values("bpr").groupby("rule", sort=False)):
+        for ax, (col, _) in zip(axes, panels):
+            ax.plot(g.bpr, g[col], "o-", color=f"C{k}", ms=3, label=rule)
+    for ax, (_, label) in zip(axes, panels):
+        ax.set_xlabel("ball-to-powder ratio (BPR)")
+        ax.set_ylabel(label)
+        ax.set_yscale("log")
+        ax.grid(True, which="major", lw=0.3)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(f"{table.pet_feed_kg_per_h.iloc[0]:.0f} kg/h PET: the mill each yield rule asks for (same yield per BPR)")
+    fig.tight_layout()
+    return fig
+
+
+def plot_dissipation_spectra(spectra: pd.DataFrame, thresholds_j=()):
+    """Share of the collision dissipation below each impact energy, one curve per `case` (all
+    pair types together), with the thresholds E* marked."""
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    for case, g in spectra.groupby("case", sort=False):
+        g = g.groupby("energy_hi_j", as_index=False)["fraction"].sum()
+        ax.plot(g.energy_hi_j, np.cumsum(g.fraction) / max(g.fraction.sum(), 1e-300), lw=1.4, label=str(case))
+    for e in thresholds_j:
+        ax.axvline(e, color="0.6", lw=0.8, ls="--")
+    hit = spectra[spectra["count"] > 0]
+    if len(hit):
+        ax.set_xlim(hit.energy_lo_j.min(), hit.energy_hi_j.max())
+    ax.set_xscale("log")
+    ax.set_xlabel("normal impact energy (J)")
+    ax.set_ylabel("share of dissipation in collisions below")
+    ax.grid(True, which="major", lw=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("Where the collision energy goes (dashed: E* of the threshold rules)")
+    return fig
+
+
 # Figures a study's report may name (study.report.figure): each draws one from the sweep's records.
-FIGURES = {"fig3b": plot_fig3b, "fig4": plot_fig4}
+FIGURES = {"fig3b": plot_fig3b, "fig4": plot_fig4, "scaleup_rule": lambda t: plot_scaleup_rule(with_rule_labels(t))}
+
+
+def with_rule_labels(table: pd.DataFrame) -> pd.DataFrame:
+    """A `rule` column: the yield rule, with E* for the threshold rule."""
+    return table.assign(rule=[rule_label(r) for r in table.to_dict("records")])
+
+
+def rule_label(rec: dict) -> str:
+    rule = rec.get("yield_rule", "bpr_line")
+    return f"{rule} {1e3 * rec['impact_threshold_j']:g} mJ" if rule == "impact_threshold" else rule

@@ -17,11 +17,21 @@ from omegaconf import OmegaConf
 
 from .config import MM400_GEOMETRY, ConfigError, StudyConfig, StudyReport, one_line, to_object
 from .data import table
+from .dose import dose_rates
 from .files import read_json
 from .impacts import energy_spectrum
-from .plots import FIGURES, plot_impact_spectra, plot_lab_validation, save_figure
+from .plots import (
+    FIGURES,
+    plot_dissipation_spectra,
+    plot_impact_spectra,
+    plot_lab_validation,
+    save_figure,
+    with_rule_labels,
+)
+from .yields import pet_fraction
 
-SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv"]
+SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv",
+           "yield_lab_conditions.csv"]
 
 
 def collect(sweep_dir: Path) -> pd.DataFrame:
@@ -156,6 +166,93 @@ def lab_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> 
     return lines
 
 
+RULE_COLUMNS = ["rule", "bpr", "residence_time_min", "residence_time_se_min", "fixed_point_iterations", "diameter_m",
+                "length_m", "ball_count", "fraction_of_critical", "dem_power_w", "electricity_usd_per_t_pet",
+                "purchase_cost_usd", "yield_percent", "collision_power_w_per_kg_pet", "impact_power_w_per_kg_pet",
+                "collision_dose_kj_per_kg_pet", "impact_dose_kj_per_kg_pet"]
+
+
+def scaleup_rule_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
+    """Each yield rule's mill per BPR; at BPR 19 against the seed's, and the mechanics behind the
+    difference: the lab's and the seed mill's dose rates and dissipation spectra side by side."""
+    ok = with_rule_labels(ok)
+    table = ok[[c for c in RULE_COLUMNS if c in ok]].sort_values(["rule", "bpr"])
+    write_table(table, out_dir / f"{name}_designs")
+    lines = ["## Yield rules: the mill each asks for", "", table.to_markdown(index=False, floatfmt=".4g"), ""]
+    at19 = ok[(ok.bpr - 19).abs() < 1e-9].set_index("rule")
+    if "bpr_line" not in at19.index:
+        return lines
+    seed = at19.loc["bpr_line"]
+    head = ("| rule | residence time (min) | D x L (m) | balls | power (kW) | electricity ($/t PET) | purchase cost ($) "
+            "| x seed's residence time | x seed's power |")
+    lines += ["### BPR 19 against the seed's design", "", head, "|---|---|---|---|---|---|---|---|---|"]
+    for rule, r in at19.iterrows():
+        lines.append(f"| {rule} | {r.residence_time_min:.4g} | {r.diameter_m:.2f} x {r.length_m:.2f} | "
+                     f"{r.ball_count:.0f} | {r.dem_power_w / 1e3:.4g} | {r.electricity_usd_per_t_pet:.3g} | "
+                     f"{r.purchase_cost_usd:,.0f} | {r.residence_time_min / seed.residence_time_min:.3g} | "
+                     f"{r.dem_power_w / seed.dem_power_w:.3g} |")
+    lines.append("")
+    return lines + mechanics_lines(name, ok, seed, out_dir)
+
+
+def mechanics_lines(name: str, ok: pd.DataFrame, seed: pd.Series, out_dir: Path) -> list[str]:
+    """The lab's nominal condition beside the seed's mill at BPR 19: dose rates per kg of balls and
+    of PET, and where the dissipation falls on the impact-energy axis."""
+    energy = ok[ok.calibration_dir.notna()] if "calibration_dir" in ok else ok.iloc[:0]
+    if energy.empty:
+        return []
+    folder = Path(energy.calibration_dir.iloc[0])
+    conds = pd.read_csv(folder / "conditions.csv")
+    nominal = conds[conds.nominal].iloc[0]
+    meta = read_json(folder / "calibration.json")
+    lab_log = pd.read_parquet(folder / "collisions.parquet").query(f"replica == {nominal.replica}")
+    mill_log = pd.read_parquet(Path(seed.dem_dir) / "collisions.parquet")
+    thresholds = sorted(ok.impact_threshold_j[ok.yield_rule == "impact_threshold"].unique())
+    pet_fraction_lab = pet_fraction(meta["lab"]["bpr_basis"])
+    seed_pet_kg = seed.pet_feed_kg_per_h * seed.residence_time_min / 60
+    rows = []
+    for label, log_, after, until, balls_kg, pet_kg in (
+            ("lab (nominal), BPR 19", lab_log, meta["settle_s"], meta["duration_s"], nominal.ball_mass_kg,
+             nominal.ball_mass_kg / 19 * pet_fraction_lab),
+            ("mill, seed design, BPR 19", mill_log, seed.dem_averaging_from_s, seed.dem_simulated_s, seed.ball_mass_kg,
+             seed_pet_kg)):
+        rates = {e: dose_rates(log_, after, until, balls_kg, e) for e in (thresholds or [1e-2])}
+        first = next(iter(rates.values()))
+        rows.append({"case": label, "collision power (W/kg balls)": first["collision_power_w_per_kg"],
+                     "per kg PET (W/kg)": first["collision_power_w_per_kg"] * balls_kg / pet_kg,
+                     "collisions (1/s per kg balls)": first["collision_frequency_per_s_per_kg"],
+                     **{f"share above {1e3 * e:g} mJ": r["impact_power_w_per_kg"] / r["collision_power_w_per_kg"]
+                        for e, r in rates.items()}})
+    spectra = pd.concat([energy_spectrum(lab_log, meta["settle_s"], weight="dissipated_j").assign(case=rows[0]["case"]),
+                         energy_spectrum(mill_log, seed.dem_averaging_from_s, weight="dissipated_j")
+                         .assign(case=rows[1]["case"])], ignore_index=True)
+    write_table(spectra, out_dir / f"{name}_dissipation_spectra")
+    save_figure(plot_dissipation_spectra(spectra, thresholds), out_dir / f"{name}_dissipation_spectra")
+    return ["### Why: the two mills' collisions", "", pd.DataFrame(rows).to_markdown(index=False, floatfmt=".3g"), "",
+            f"![dissipation spectra]({name}_dissipation_spectra.png)", ""]
+
+
+def yield_calibration_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
+    """The lab dose rates per assumed condition, relative to the nominal one: an energy rule's
+    residence time scales with the lab's dose rate."""
+    lines = []
+    for rec in ok.itertuples():
+        table = pd.read_csv(Path(rec.job_dir) / "lab_dose.csv")
+        write_table(table, out_dir / f"{name}_lab_dose")
+        cols = ["balls", "frequency_hz", "ball_diameter_m", "nominal", "collision_power_w_per_kg",
+                "collision_power_w_per_kg_se", "collision_power_w_per_kg_relative", "impact_power_w_per_kg",
+                "impact_power_w_per_kg_relative", "largest_impact_j"]
+        text = (f"E* = {rec.impact_threshold_j} J; specific_energy: Y = {rec.specific_energy_yield_a_percent:.4g} + "
+                f"{rec.specific_energy_yield_b_percent_per_kj_per_kg:.4g} D (% per kJ/kg PET); impact_threshold: "
+                f"Y = {rec.impact_threshold_yield_a_percent:.4g} + "
+                f"{rec.impact_threshold_yield_b_percent_per_kj_per_kg:.4g} D. Dose rates per kg of balls; "
+                "'relative' = against the nominal condition, the factor by which an energy rule's residence time "
+                "moves if that condition were the experiments' instead.")
+        lines += ["## Lab calibration of the dose line", "", text, "", table[cols].to_markdown(index=False, floatfmt=".4g"),
+                  ""]
+    return lines
+
+
 # The parts a study's report may name (study.report.sections), in the order it lists them.
 SECTIONS = {
     "design_table": lambda name, ok, spec, out: design_table(name, ok, spec),
@@ -163,6 +260,8 @@ SECTIONS = {
     "shape_rule": lambda name, ok, spec, out: shape_rule_table(name, ok, spec),
     "impacts": impact_lines,
     "lab": lab_lines,
+    "scaleup_rule": scaleup_rule_lines,
+    "yield_calibration": yield_calibration_lines,
 }
 
 

@@ -18,13 +18,16 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import pandas as pd
+
 from .config import MM400_GEOMETRY, ConfigError, DrumConfig, SimConfig
 from .dem import SimulationError, SystemSpec
 from .dose import dose_j_per_kg, dose_rates, with_basis
 from .drum import DrumRun, ball_count, dem_key, drum_spec, simulate_drum
 from .economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
-from .lab import conditions, mm400_spec, simulate_mm400, summarise, wall_interaction
+from .lab import conditions, jar_ball_mass_kg, mm400_spec, simulate_mm400, summarise, wall_interaction
 from .lab_dose import (
+    calibrated,
     calibration_folder,
     calibration_key,
     kinetics_mills,
@@ -153,14 +156,20 @@ def plan_design(s: Scenario) -> Plan:
     margin_usd_per_t_tpa(econ)
     check_numerics(drum_spec(mill_drum(s, design), s.materials, s.interactions, s.sim), s.sim, "mill")
     record = {"bpr": scale.bpr, "region": scale.region, "shape_rule": scale.shape_rule, "yield_rule": model.rule,
-              "bpr_line_yield_percent": line_y, "yield_extrapolated": extrapolated}
-    line = None if model.rule == "bpr_line" else lab_dose_line(s)  # refused until the lab is calibrated
-    target = None
+              "impact_threshold_j": model.impact_threshold_j, "bpr_line_yield_percent": line_y,
+              "yield_extrapolated": extrapolated}
+    energy = model.rule != "bpr_line"
+    deferred = energy and model.run_lab_calibration and not calibrated(s)  # the lab DEM runs in execute
+    line = lab_dose_line(s) if energy and not deferred else None  # refused until the lab is calibrated
+    target = model.target_yield_percent or line_y if energy and model.mode == "target_yield" else None
+
+    def line_record() -> dict:
+        out = line.as_record() | {"yield_mode": model.mode, "calibration_dir": str(calibration_folder(s))}
+        return out | ({"target_yield_percent": target, "target_dose_kj_per_kg_pet": line.dose_for(target) / 1e3}
+                      if target is not None else {})
+
     if line is not None:
-        record |= line.as_record() | {"yield_mode": model.mode}
-        if model.mode == "target_yield":
-            target = model.target_yield_percent or line_y
-            record |= {"target_yield_percent": target, "target_dose_kj_per_kg_pet": line.dose_for(target) / 1e3}
+        record |= line_record()
 
     def evaluate_mill(design, run: DrumRun) -> dict:
         pet_kg = design.pet_feed_kg_per_h * design.residence_time_min / 60
@@ -177,9 +186,15 @@ def plan_design(s: Scenario) -> Plan:
                                                              2 * design.ball_radius_m)}
 
     def execute(out_dir: Path) -> dict:
+        nonlocal line
+        first = {}
+        if deferred:
+            simulate_kinetics_lab(s)
+            line = lab_dose_line(s)
+            first = line_record()
         if target is None:
             run, dem_dir = run_drum(s, mill_drum(s, design), out_dir)
-            return drum_record(run, dem_dir) | evaluate_mill(design, run)
+            return first | drum_record(run, dem_dir) | evaluate_mill(design, run)
         mills = {}
 
         def rate_at(tau_min: float) -> tuple[float, float]:
@@ -195,7 +210,7 @@ def plan_design(s: Scenario) -> Plan:
         run, dem_dir = run_drum(s, mill_drum(s, final), out_dir)  # cached: the figures of the final mill
         log.info("residence time %.4g min after %d DEM runs: %s", fp.residence_time_min, fp.iterations,
                  ", ".join(f"{t:.4g}" for t in fp.history_min))
-        return drum_record(run, dem_dir) | evaluate_mill(final, run) | {
+        return first | drum_record(run, dem_dir) | evaluate_mill(final, run) | {
             "residence_time_se_min": fp.se_min, "fixed_point_iterations": fp.iterations,
             "fixed_point_dose_miss": fp.miss,
             "fixed_point_history_min": " ".join(f"{t:.6g}" for t in fp.history_min)}
@@ -216,7 +231,13 @@ def plan_lab(s: Scenario) -> Plan:
     def execute(out_dir: Path) -> dict:
         check_machine(s.sim)
         traj, collisions = simulate_mm400(lab, conds, s.materials, s.interactions, s.sim)
-        summary = summarise(traj, collisions, lab, conds).assign(
+        model = s.yield_model
+        doses = pd.DataFrame([
+            with_basis(dose_rates(collisions[collisions.replica == k], lab.settle_s, lab.duration_s,
+                                  jar_ball_mass_kg(lab, c.ball_diameter_m, s.materials), model.impact_threshold_j,
+                                  model.dose_batches), "balls")
+            for k, c in enumerate(conds)])
+        summary = summarise(traj, collisions, lab, conds).join(doses).assign(
             balls=lab.balls_per_jar, **{k: getattr(lab, k) for k in MM400_GEOMETRY})
         if summary.mean_speed_m_per_s.isna().any():
             raise SimulationError(f"lab: no ball speed after lab.settle_s={lab.settle_s} s of "
