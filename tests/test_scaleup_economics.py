@@ -76,3 +76,11 @@ def test_regional_feed_is_national_collection_times_population_share():
 def test_bond_rowland_power_by_hand():
     kwb = 4.879 * 2.0**0.3 * (3.2 - 0.9) * 0.7 * (1 - 0.1 / 2 ** (9 - 7)) + 1.102 * (100 - 25) / 50.8
     assert bond_rowland_power_w(2.0, 10_000.0, 0.3, 0.7, 0.1) == pytest.approx(kwb * 10 * 1000)
+
+
+def test_holdup_scaling_prices_a_longer_residence_time_as_a_larger_capacity():
+    holdup = replace(ECON, capacity_scaling="holdup")
+    assert purchase_cost_usd(1000.0, 400.0, holdup, 20.0) == purchase_cost_usd(1000.0, 400.0, ECON)
+    assert purchase_cost_usd(1000.0, 400.0, holdup, 80.0) == pytest.approx(
+        purchase_cost_usd(4000.0, 400.0, ECON))
+    assert purchase_cost_usd(1000.0, 400.0, ECON, 80.0) == purchase_cost_usd(1000.0, 400.0, ECON)

@@ -135,6 +135,12 @@ class EconomicsConfig:
     cost_exponent: float = rng(0.64, 0.0, 2.0, lo_open=True)
     capacity_unit: str = field(default="short_ton_per_h", metadata={"choices": ("short_ton_per_h", "tonne_per_h")})
     capacity_basis: str = field(default="pet", metadata={"choices": ("pet", "pet_plus_naoh")})
+    capacity_scaling: str = field(default="feed", metadata={
+        "choices": ("feed", "holdup"),
+        "doc": "W of the cost correlation: the feed (the paper), or the feed x residence time / "
+               "reference_residence_time_min (a mill priced by the charge it holds)"})
+    reference_residence_time_min: float = rng(20.0, 0.0, None, lo_open=True,
+                                              doc="residence time at which the correlation's W is the feed")
     cepci_base_year: int = rng(2005, 1950, 2100)
     cepci_target_year: int = rng(2022, 1950, 2100)
     prices_file: str = "prices.csv"

@@ -25,9 +25,13 @@ def cepci(year: int, cfg: EconomicsConfig) -> float:
     return lookup(cfg.cepci_file, "year", year, "cepci")
 
 
-def purchase_cost_usd(pet_kg_per_h: float, naoh_kg_per_h: float, cfg: EconomicsConfig) -> float:
-    """Purchase cost (target-year $) of a ball mill of the given feed capacity."""
+def purchase_cost_usd(pet_kg_per_h: float, naoh_kg_per_h: float, cfg: EconomicsConfig,
+                      residence_time_min: float | None = None) -> float:
+    """Purchase cost (target-year $) of a ball mill of the given feed capacity (with
+    capacity_scaling=holdup, scaled by its residence time against the reference one)."""
     kg_per_h = pet_kg_per_h + (naoh_kg_per_h if cfg.capacity_basis == "pet_plus_naoh" else 0.0)
+    if cfg.capacity_scaling == "holdup" and residence_time_min is not None:
+        kg_per_h *= residence_time_min / cfg.reference_residence_time_min
     w = kg_per_h / (SHORT_TON_KG if cfg.capacity_unit == "short_ton_per_h" else 1000.0)
     base = cfg.cost_coefficient_usd * w**cfg.cost_exponent
     return base * cepci(cfg.cepci_target_year, cfg) / cepci(cfg.cepci_base_year, cfg)
@@ -65,9 +69,9 @@ def bond_rowland_power_w(diameter_m: float, ball_mass_kg: float, fill_fraction: 
 
 
 def evaluate(power_w: float, yield_percent: float, pet_kg_per_h: float, naoh_kg_per_h: float,
-             cfg: EconomicsConfig) -> dict:
+             residence_time_min: float, cfg: EconomicsConfig) -> dict:
     """All economic outputs of one mill as a flat record (the yield from the yield model)."""
-    cost = purchase_cost_usd(pet_kg_per_h, naoh_kg_per_h, cfg)
+    cost = purchase_cost_usd(pet_kg_per_h, naoh_kg_per_h, cfg, residence_time_min)
     return {
         **electricity(power_w, pet_kg_per_h, cfg),
         "purchase_cost_usd": cost,

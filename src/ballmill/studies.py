@@ -179,7 +179,7 @@ def plan_design(s: Scenario) -> Plan:
                  for m in ("collision_power_w_per_kg", "impact_power_w_per_kg")}
         y = line_y if line is None else line.yield_percent(dose_j_per_kg(rates[line.measure], minutes))
         return {**design.as_record(), **with_basis(rates, "pet"), **doses,
-                **evaluate(run.summary["power_w"], y, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, econ),
+                **evaluate(run.summary["power_w"], y, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, minutes, econ),
                 "yield_capped": line is None and line_yield(scale.bpr, model) > 100.0,
                 "bond_rowland_power_w": bond_rowland_power_w(design.diameter_m, design.ball_mass_kg,
                                                              scale.fill_fraction, design.fraction_of_critical,
