@@ -170,12 +170,17 @@ class MM400Config:
                                                   "well above tracking noise (~0.2 m/s at 0.2 px)")
 
     def __post_init__(self):
-        for name in ("frequencies_hz", "ball_diameters_m"):
-            values = getattr(self, name)
-            if not values:
-                raise ConfigError(f"lab.{name}=[] is empty: give at least one value")
-            for i, v in enumerate(values):
-                _check_field(f"lab.{name}[{i}]", v, {"range": (0.0, None, True, False)})
+        check_positive_lists(self, "lab", ("frequencies_hz", "ball_diameters_m"))
+
+
+def check_positive_lists(obj, path: str, names: tuple[str, ...]) -> None:
+    """Each named list field is non-empty and every entry a positive number."""
+    for name in names:
+        values = getattr(obj, name)
+        if not values:
+            raise ConfigError(f"{path}.{name}=[] is empty: give at least one value")
+        for i, v in enumerate(values):
+            _check_field(f"{path}.{name}[{i}]", v, {"range": (0.0, None, True, False)})
 
 
 @dataclass
@@ -198,12 +203,7 @@ class KineticsLabConfig:
         "doc": "ball sizes of the sensitivity run"})
 
     def __post_init__(self):
-        for name in ("frequencies_hz", "ball_diameters_m"):
-            values = getattr(self, name)
-            if not values:
-                raise ConfigError(f"yield_model.lab.{name}=[] is empty: give at least one value")
-            for i, v in enumerate(values):
-                _check_field(f"yield_model.lab.{name}[{i}]", v, {"range": (0.0, None, True, False)})
+        check_positive_lists(self, "yield_model.lab", ("frequencies_hz", "ball_diameters_m"))
 
 
 @dataclass

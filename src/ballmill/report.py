@@ -114,7 +114,9 @@ COLUMNS = ["bpr", "region", "shape_rule", "pet_feed_kg_per_h", "naoh_feed_kg_per
            "electricity_usd_per_yr", "electricity_usd_per_t_pet", "purchase_cost_usd", "purchase_cost_usd_per_kg_per_h", "yield_percent"]
 IMPACT_COLUMNS = ["dem_collisions_per_s", "dem_ball_ball_impact_energy_mean_j", "dem_ball_ball_impact_energy_p90_j",
                   "dem_ball_wall_drum_impact_energy_mean_j", "dem_ball_wall_drum_impact_energy_p90_j",
-                  "dem_specific_dissipated_power_w_per_kg"]
+                  "dem_specific_dissipated_power_w_per_kg", "collision_power_w_per_kg_pet",
+                  "collision_power_w_per_kg_pet_se", "impact_threshold_j", "impact_power_w_per_kg_pet",
+                  "collision_dose_kj_per_kg_pet", "collision_power_w_per_kg_balls", "impact_power_w_per_kg_balls"]
 
 
 def case_label(rec) -> str:
@@ -155,7 +157,8 @@ def lab_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> 
     save_figure(plot_lab_validation(sim, observed), out_dir / name)
     cols = [c for c in ["balls", "frequency_hz", "ball_diameter_m", "wall_restitution", "wall_friction",
                         *swept, "mean_speed_m_per_s",
-                        "video_collisions_per_s", "ball_wall_collisions_per_s", "mean_impact_energy_j"] if c in sim]
+                        "video_collisions_per_s", "ball_wall_collisions_per_s", "mean_impact_energy_j",
+                        "collision_power_w_per_kg_balls", "impact_power_w_per_kg_balls"] if c in sim]
     lines = [f"![{name}]({name}.png)", "", sim[cols].to_markdown(index=False, floatfmt=".4g"), ""]
     if swept:  # the response can be far from linear (a ball that never reaches the jar's ends)
         lines += ["Mean ball speed (m/s) by the value of each swept input, averaged over the others:", ""]
