@@ -33,6 +33,7 @@ from .config import (
     DrumConfig,
     EconomicsConfig,
     MM400Config,
+    PlantConfig,
     ScaleupConfig,
     SimConfig,
     StudyConfig,
@@ -116,7 +117,8 @@ class Command:
 
 
 RUN_GROUPS = (("sim", SimConfig), ("mill", DrumConfig), ("scaleup", ScaleupConfig), ("economics", EconomicsConfig),
-              ("lab", MM400Config), ("study", StudyConfig), ("yield_model", YieldModelConfig))
+              ("lab", MM400Config), ("study", StudyConfig), ("yield_model", YieldModelConfig),
+              ("plant", PlantConfig))
 LAB_GROUPS = (("sim", SimConfig), ("lab", MM400Config))
 COMMANDS = {
     "run": Command("one scenario, or a sweep (-m, or +sweep=NAME from conf/sweep/)", None, RUN_GROUPS),

@@ -233,6 +233,62 @@ class YieldModelConfig:
     lab: KineticsLabConfig = field(default_factory=KineticsLabConfig)
 
 
+@dataclass
+class PlantConfig:
+    """The plant around the mill: unit-operation parameters, utility prices, capital and
+    operating cost factors and the discounted cash flow (defaults and their sources:
+    conf/plant/nrel.yaml; uncertainty ranges: data/plant_uncertainty.csv)."""
+
+    recycle_purge_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True,
+                                        doc="share of the unreacted PET purged (1: no recycle)")
+    dissolution_water_kg_per_kg_na2tpa: float = rng(8.0, 0.0, None, lo_open=True)
+    h2so4_to_stoichiometric: float = rng(1.02, 1.0, None)
+    tpa_recovery: float = rng(0.98, 0.0, 1.0, lo_open=True)
+    wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, None)
+    cake_water_kg_per_kg_tpa: float = rng(0.25, 0.0, None)
+    eg_recovery: float = rng(0.95, 0.0, 1.0)
+    dryer_steam_kg_per_kg_water: float = rng(1.3, 0.0, None, lo_open=True)
+    evaporator_steam_economy: float = rng(3.0, 0.0, None, lo_open=True, doc="kg water evaporated per kg steam")
+    eg_column_steam_kg_per_kg_eg: float = rng(2.0, 0.0, None)
+    cooling_water_rise_k: float = rng(10.0, 0.0, None, lo_open=True)
+    shredding_energy_kwh_per_t: float = rng(132.0, 0.0, None)
+    tank_residence_time_h: float = rng(1.0, 0.0, None, lo_open=True)
+    filter_flux_kg_per_m2_h: float = rng(200.0, 0.0, None, lo_open=True, doc="solids per filter area")
+    evaporator_u_w_per_m2_k: float = rng(1500.0, 0.0, None, lo_open=True)
+    evaporator_delta_t_k: float = rng(15.0, 0.0, None, lo_open=True)
+    steam_usd_per_t: float = rng(25.0, 0.0, None)
+    cooling_water_usd_per_t: float = rng(0.05, 0.0, None)
+    process_water_usd_per_t: float = rng(0.25, 0.0, None)
+    na2so4_usd_per_t: float = field(default=0.0, metadata={"doc": "sale (> 0) or disposal (< 0) of the salt"})
+    residue_usd_per_t: float = rng(-50.0, None, 0.0, doc="disposal of purged PET and column residue (< 0)")
+    equipment_cost_factor: float = rng(1.0, 0.0, None, lo_open=True, doc="multiplies every purchase cost")
+    installation_factor: float = rng(3.2, 1.0, None, doc="ISBL / purchase cost, carbon steel")
+    stainless_factor: float = rng(1.3, 1.0, None, doc="material factor of the wetted units")
+    site_factor: float = rng(0.175, 0.0, None, doc="warehouse, site development, extra piping / ISBL")
+    indirect_factor: float = rng(0.6, 0.0, None, doc="engineering, construction, contingency, other / direct cost")
+    working_capital_fraction: float = rng(0.05, 0.0, None, doc="of the fixed capital")
+    staff: int = rng(20, 0, None, doc="employees")
+    salary_usd_per_yr: float = rng(60000.0, 0.0, None)
+    labour_burden: float = rng(0.9, 0.0, None, doc="overhead on salaries")
+    maintenance_fraction: float = rng(0.03, 0.0, None, doc="of ISBL per year")
+    insurance_fraction: float = rng(0.007, 0.0, None, doc="property insurance and tax, of the fixed capital per year")
+    plant_life_yr: int = rng(30, 1, 100)
+    construction_fractions: list[float] = field(default_factory=lambda: [0.08, 0.60, 0.32], metadata={
+        "doc": "capital spent in each construction year (sums to 1)"})
+    discount_rate: float = rng(0.10, 0.0, 1.0, doc="real, after tax")
+    tax_rate: float = rng(0.21, 0.0, 1.0, hi_open=True)
+    depreciation_file: str = "macrs_7yr.csv"
+    cost_file: str = "equipment_costs.csv"
+    monte_carlo_draws: int = rng(2000, 0, None)
+    seed: int = rng(0, 0, None)
+
+    def __post_init__(self):
+        check_positive_lists(self, "plant", ("construction_fractions",))
+        if abs(sum(self.construction_fractions) - 1.0) > 1e-9:
+            raise ConfigError(f"plant.construction_fractions={self.construction_fractions} sum to "
+                              f"{sum(self.construction_fractions):g}: they must sum to 1")
+
+
 # The MM400 fields no source pins down (estimates): lab runs report them beside their results.
 MM400_GEOMETRY = ("jar_volume_ml", "jar_inner_diameter_m", "amplitude_m", "pivot_radius_m")
 
@@ -288,7 +344,7 @@ class StudyConfig:
     """What a run does (a pipeline of studies.STUDIES) and how its sweep is reported."""
 
     name: str = "design"
-    kind: str = field(default="design", metadata={"choices": ("design", "drum", "lab", "yield_calibration")})
+    kind: str = field(default="design", metadata={"choices": ("design", "drum", "lab", "yield_calibration", "plant")})
     observations: str | None = field(default=None, metadata={"doc": "observations.csv drawn beside a lab study"})
     report: StudyReport = field(default_factory=StudyReport)
 
@@ -357,6 +413,7 @@ def register() -> None:
     cs.store(group="lab", name="base_mm400", node=MM400Config)
     cs.store(group="study", name="base_study", node=StudyConfig)
     cs.store(group="yield_model", name="base_yield_model", node=YieldModelConfig)
+    cs.store(group="plant", name="base_plant", node=PlantConfig)
     for name, node in COMMANDS.items():
         cs.store(name=f"base_{name}", node=node)
 

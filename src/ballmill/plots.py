@@ -207,8 +207,66 @@ def plot_dissipation_spectra(spectra: pd.DataFrame, thresholds_j=()):
     return fig
 
 
+MSP_GROUPS = {  # cost categories of the MSP breakdown, as stacked in the figures
+    "capital": ["msp_capital_usd_per_kg"],
+    "PET": ["msp_pet_bale_usd_per_kg"],
+    "NaOH + H2SO4": ["msp_naoh_usd_per_kg", "msp_h2so4_usd_per_kg"],
+    "utilities": ["msp_electricity_mill_usd_per_kg", "msp_electricity_shredder_usd_per_kg", "msp_steam_usd_per_kg",
+                  "msp_cooling_water_usd_per_kg", "msp_process_water_usd_per_kg", "msp_waste_disposal_usd_per_kg"],
+    "labour, maintenance, insurance": ["msp_labour_usd_per_kg", "msp_maintenance_usd_per_kg",
+                                       "msp_insurance_and_tax_usd_per_kg"],
+    "EG + salt credits": ["msp_eg_credit_usd_per_kg", "msp_na2so4_credit_usd_per_kg"],
+}
+
+
+def plot_msp(table: pd.DataFrame, by: str, label: str):
+    """Minimum selling price of rTPA per case: the breakdown stacked (credits below zero), the
+    MSP with its 5-95 % Monte Carlo band, and the mill section's share."""
+    t = table.sort_values(by if by != "region" else "plant_fresh_pet_kg_per_h")
+    x = np.arange(len(t))
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    up, down = np.zeros(len(t)), np.zeros(len(t))
+    for k, (name, cols) in enumerate(MSP_GROUPS.items()):
+        v = t[[c for c in cols if c in t]].sum(axis=1).to_numpy()
+        base = np.where(v >= 0, up, down)
+        ax.bar(x, v, bottom=base, color=f"C{k}", label=name, width=0.7)
+        up, down = up + np.maximum(v, 0), down + np.minimum(v, 0)
+    err = [t.msp_usd_per_kg - t.msp_p5_usd_per_kg, t.msp_p95_usd_per_kg - t.msp_usd_per_kg]
+    ax.errorbar(x, t.msp_usd_per_kg, yerr=err, fmt="ko", ms=4, capsize=3, label="MSP (5-95 % band)")
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set_xticks(x, [f"{v:g}" if isinstance(v, float) else str(v) for v in t[by]])
+    ax.set_xlabel(label)
+    ax.set_ylabel("$ per kg rTPA")
+    ax2 = ax.twinx()
+    ax2.plot(x, 100 * t.msp_mill_share, "s--", color="0.3", ms=4)
+    ax2.set_ylabel("mill section's share of the MSP (%, squares)")
+    ax2.set_ylim(0, max(5.0, 120 * t.msp_mill_share.max()))
+    ax.legend(fontsize=7, loc="upper left", ncol=2)
+    ax.set_title("Minimum selling price of rTPA and where it goes")
+    fig.tight_layout()
+    return fig
+
+
+def plot_tornado(tornado: pd.DataFrame, base_usd_per_kg: float):
+    """MSP at each input's low and high end, the others at base (largest swing on top)."""
+    t = tornado.iloc[::-1]
+    fig, ax = plt.subplots(figsize=(7, 0.3 * len(t) + 1.2))
+    y = np.arange(len(t))
+    ax.barh(y, t.msp_low_usd_per_kg - base_usd_per_kg, left=base_usd_per_kg, color="C0", label="input at low end")
+    ax.barh(y, t.msp_high_usd_per_kg - base_usd_per_kg, left=base_usd_per_kg, color="C3", label="input at high end")
+    ax.axvline(base_usd_per_kg, color="k", lw=0.8)
+    ax.set_yticks(y, t.parameter, fontsize=7)
+    ax.set_xlabel("MSP of rTPA ($/kg)")
+    ax.legend(fontsize=7)
+    ax.set_title("One at a time: how far each input moves the MSP")
+    fig.tight_layout()
+    return fig
+
+
 # Figures a study's report may name (study.report.figure): each draws one from the sweep's records.
-FIGURES = {"fig3b": plot_fig3b, "fig4": plot_fig4, "scaleup_rule": lambda t: plot_scaleup_rule(with_rule_labels(t))}
+FIGURES = {"fig3b": plot_fig3b, "fig4": plot_fig4, "scaleup_rule": lambda t: plot_scaleup_rule(with_rule_labels(t)),
+           "plant_msp": lambda t: plot_msp(t, "bpr", "ball-to-powder ratio (BPR)"),
+           "plant_states": lambda t: plot_msp(t, "region", "state (by PET feed)")}
 
 
 def with_rule_labels(table: pd.DataFrame) -> pd.DataFrame:

@@ -25,13 +25,14 @@ from .plots import (
     plot_dissipation_spectra,
     plot_impact_spectra,
     plot_lab_validation,
+    plot_tornado,
     save_figure,
     with_rule_labels,
 )
 from .yields import pet_fraction
 
 SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv",
-           "yield_lab_conditions.csv"]
+           "yield_lab_conditions.csv", "equipment_costs.csv", "macrs_7yr.csv", "plant_uncertainty.csv"]
 
 
 def collect(sweep_dir: Path) -> pd.DataFrame:
@@ -59,7 +60,8 @@ def provenance() -> dict:
     out = {}
     for name in SOURCES:
         df = table(name)
-        out[name] = sorted({f"{r.source} ({r.year}) {r.url}" for r in df.itertuples()})
+        out[name] = sorted({f"{r.source} ({r.year}) {r.url if isinstance(r.url, str) else ''}".strip()
+                            for r in df.itertuples()})
     return out
 
 
@@ -256,6 +258,38 @@ def yield_calibration_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_
     return lines
 
 
+PLANT_COLUMNS = ["bpr", "region", "plant_fresh_pet_kg_per_h", "plant_mill_pet_kg_per_h", "yield_percent",
+                 "plant_rtpa_t_per_yr", "plant_fixed_capital_usd", "plant_opex_usd_per_yr", "msp_usd_per_kg",
+                 "msp_p5_usd_per_kg", "msp_p95_usd_per_kg", "msp_capital_usd_per_kg", "msp_mill_section_usd_per_kg",
+                 "msp_mill_share"]
+
+
+def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
+    """MSP per case with its band and breakdown; for one case (the paper's BPR 19, else the
+    largest feed): what dominates, the tornado chart, the stream table and the equipment."""
+    cols = [c for c in PLANT_COLUMNS if c in ok and ok[c].notna().any()]
+    breakdown = [c for c in ok if c.startswith("msp_") and c.endswith("_usd_per_kg")]
+    write_table(ok[cols + [c for c in breakdown if c not in cols]], out_dir / f"{name}_msp")
+    at19 = ok[(ok.bpr - 19).abs() < 1e-9] if ok.region.isna().all() else ok.iloc[:0]
+    case = (at19 if len(at19) else ok.sort_values("plant_fresh_pet_kg_per_h")).iloc[-1]
+    job = Path(case.job_dir)
+    streams = pd.read_csv(job / "streams.csv", index_col=0)
+    equipment = pd.read_csv(job / "equipment.csv")
+    tornado = pd.read_csv(job / "tornado.csv")
+    for stem, frame in (("streams", streams.reset_index()), ("equipment", equipment), ("tornado", tornado)):
+        write_table(frame, out_dir / f"{name}_{stem}")
+    save_figure(plot_tornado(tornado, case.msp_usd_per_kg), out_dir / f"{name}_tornado")
+    label = case_label(case.to_dict())
+    shares = {k: case[k] / case.msp_usd_per_kg for k in breakdown if k != "msp_usd_per_kg" and k in case}
+    top = sorted(shares.items(), key=lambda kv: -abs(kv[1]))[:4]
+    return ["## Whole plant: minimum selling price of rTPA", "", ok[cols].to_markdown(index=False, floatfmt=".4g"), "",
+            f"### {label}: what dominates", "",
+            ", ".join(f"{k.removeprefix('msp_').removesuffix('_usd_per_kg')} {100 * v:.0f} %" for k, v in top)
+            + " of the MSP.", "", f"![tornado]({name}_tornado.png)", "",
+            "Stream table (kg/h):", "", streams.to_markdown(floatfmt=".4g"), "",
+            "Equipment:", "", equipment.to_markdown(index=False, floatfmt=".4g"), ""]
+
+
 # The parts a study's report may name (study.report.sections), in the order it lists them.
 SECTIONS = {
     "design_table": lambda name, ok, spec, out: design_table(name, ok, spec),
@@ -265,6 +299,7 @@ SECTIONS = {
     "lab": lab_lines,
     "scaleup_rule": scaleup_rule_lines,
     "yield_calibration": yield_calibration_lines,
+    "plant": plant_lines,
 }
 
 

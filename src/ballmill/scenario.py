@@ -24,6 +24,7 @@ from .config import (
     InteractionConfig,
     MaterialConfig,
     MM400Config,
+    PlantConfig,
     ScaleupConfig,
     SimConfig,
     StudyConfig,
@@ -76,6 +77,7 @@ class Scenario:
     economics: EconomicsConfig
     lab: MM400Config
     yield_model: YieldModelConfig
+    plant: PlantConfig
     materials: dict[str, MaterialConfig]
     interactions: dict[str, InteractionConfig]
     cache_dir: Path
@@ -88,7 +90,8 @@ def load(cfg: DictConfig) -> Scenario:
         mill=to_object(cfg.mill, DrumConfig, "mill"), scaleup=to_object(cfg.scaleup, ScaleupConfig, "scaleup"),
         economics=to_object(cfg.economics, EconomicsConfig, "economics"),
         lab=to_object(cfg.lab, MM400Config, "lab"),
-        yield_model=to_object(cfg.yield_model, YieldModelConfig, "yield_model"), materials=materials, interactions=interactions,
+        yield_model=to_object(cfg.yield_model, YieldModelConfig, "yield_model"),
+        plant=to_object(cfg.plant, PlantConfig, "plant"), materials=materials, interactions=interactions,
         cache_dir=Path(cfg.cache_dir),
     )
 

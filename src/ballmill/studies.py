@@ -18,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from .config import MM400_GEOMETRY, ConfigError, DrumConfig, SimConfig
@@ -36,6 +37,10 @@ from .lab_dose import (
     lab_sim,
     simulate_kinetics_lab,
 )
+from .plant.flowsheet import flowsheet, mill_throughput_kg_per_h
+from .plant.model import Mill
+from .plant.model import evaluate as evaluate_plant
+from .plant.uncertainty import monte_carlo, tornado
 from .plots import plot_bed, plot_drum_loads, save_figure
 from .scaleup import design_mill
 from .scenario import Scenario, time_step_s
@@ -276,8 +281,44 @@ def plan_yield_calibration(s: Scenario) -> Plan:
                  "bpr_basis": model.lab.bpr_basis, "calibration_key": calibration_key(s)}, execute)
 
 
+def plan_plant(s: Scenario) -> Plan:
+    """The whole plant for a fresh PET feed: the mill that converts it with the recycle closed
+    (its throughput from the conversion per pass and the purge), designed and simulated as in
+    `design`; then the flowsheet, costs, MSP, its Monte Carlo band and the tornado."""
+    model, scale = s.yield_model, s.scaleup
+    if model.rule != "bpr_line" and model.mode == "fixed_time":
+        raise ConfigError("study=plant: yield_model.mode=fixed_time leaves the conversion, hence the mill's "
+                          "throughput, unknown until the DEM; use yield_model.mode=target_yield")
+    fresh = design_mill(scale).pet_feed_kg_per_h
+    line_y, _ = bpr_line_yield(scale.bpr, model)
+    conversion = (model.target_yield_percent or line_y if model.rule != "bpr_line" else line_y) / 100.0
+    if scale.naoh_feed_kg_per_h is not None:
+        raise ConfigError("study=plant: give the NaOH as scaleup.naoh_to_stoichiometric (the mill's NaOH follows its "
+                          f"throughput), not scaleup.naoh_feed_kg_per_h={scale.naoh_feed_kg_per_h}")
+    flowsheet(fresh, conversion, scale.naoh_to_stoichiometric, s.plant)  # refuses no conversion, too little NaOH
+    mill_pet = mill_throughput_kg_per_h(fresh, conversion, s.plant.recycle_purge_fraction)
+    mill_plan = plan_design(replace(s, scaleup=replace(scale, pet_feed_kg_per_h=mill_pet, region=None)))
+
+    def execute(out_dir: Path) -> dict:
+        rec = mill_plan.execute(out_dir)
+        mill = Mill(mill_pet, rec["yield_percent"] / 100.0, scale.naoh_to_stoichiometric, rec["dem_power_w"],
+                    rec["purchase_cost_usd"])
+        plant = evaluate_plant(mill, s.plant, s.economics)
+        plant.stream_table().to_csv(out_dir / "streams.csv")
+        plant.equipment.to_csv(out_dir / "equipment.csv", index=False)
+        spread = monte_carlo(mill, rec["dem_power_se_w"], s.plant, s.economics)
+        tornado(mill, rec["dem_power_se_w"], s.plant, s.economics).to_csv(out_dir / "tornado.csv", index=False)
+        band = np.percentile(spread, [5, 50, 95]) if len(spread) else [np.nan] * 3
+        return rec | plant.record() | {"region": scale.region, "msp_p5_usd_per_kg": band[0],
+                                       "msp_p50_usd_per_kg": band[1], "msp_p95_usd_per_kg": band[2]}
+
+    return Plan(mill_plan.record | {"region": scale.region, "plant_fresh_pet_kg_per_h": fresh,
+                                    "plant_mill_pet_kg_per_h": mill_pet,
+                                    "recycle_purge_fraction": s.plant.recycle_purge_fraction}, execute)
+
+
 STUDIES: dict[str, Callable[[Scenario], Plan]] = {"design": plan_design, "drum": plan_drum, "lab": plan_lab,
-                                                   "yield_calibration": plan_yield_calibration}
+                                                   "yield_calibration": plan_yield_calibration, "plant": plan_plant}
 
 
 def plan(s: Scenario) -> Plan:
