@@ -27,11 +27,12 @@ def install() -> None:
 
 
 def reproduce() -> None:
-    """The paper's results into outputs/report: Figures 3b and 4 at full stiffness, the shape-rule
-    and stiffness studies, and the lab chain (film -> track -> calibrate -> Figure 3a)."""
+    """The paper's results into outputs/report: Figures 3b and 4 at full stiffness, the whole
+    plant around them (MSP against BPR and per state), the shape-rule and stiffness studies,
+    and the lab chain (film -> track -> calibrate -> Figure 3a)."""
     ballmill = str(BIN / "ballmill")
     sim = os.environ.get("BALLMILL_SIM", "paper")
-    for sweep in ("fig3b", "fig4", "shape_rule"):
+    for sweep in ("fig3b", "fig4", "shape_rule", "plant", "plant_states"):
         sh(ballmill, "run", f"+sweep={sweep}", f"sim={sim}")
     sh(ballmill, "run", "+sweep=stiffness")
     # No real videos ship with the project: film a simulation whose ball-wall pair the
@@ -44,7 +45,7 @@ def reproduce() -> None:
     sh(ballmill, "run", "+sweep=lab_validation", f"interactions.steel-pmma.restitution={best['wall_restitution']}",
        f"interactions.steel-pmma.static_friction={best['wall_friction']}", f"study.observations={cal}/observations.csv")
     sh(ballmill, "run", "+sweep=mm400_geometry")
-    names = ("fig3b", "fig4", "shape_rule", "stiffness", "lab_validation", "mm400_geometry")
+    names = ("fig3b", "fig4", "shape_rule", "plant", "plant_states", "stiffness", "lab_validation", "mm400_geometry")
     sh(ballmill, "report", f"sweeps=[{','.join(f'outputs/sweeps/{name}' for name in names)}]")
 
 

@@ -24,6 +24,7 @@ def table(name: str) -> pd.DataFrame:
     return pd.read_csv(path)
 
 
+@cache
 def lookup(name: str, key_column: str, key, value_column: str) -> float:
     df = table(name)
     rows = df[df[key_column] == key]

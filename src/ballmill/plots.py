@@ -241,7 +241,7 @@ def plot_msp(table: pd.DataFrame, by: str, label: str):
     ax2.plot(x, 100 * t.msp_mill_share, "s--", color="0.3", ms=4)
     ax2.set_ylabel("mill section's share of the MSP (%, squares)")
     ax2.set_ylim(0, max(5.0, 120 * t.msp_mill_share.max()))
-    ax.legend(fontsize=7, loc="upper left", ncol=2)
+    ax.legend(fontsize=7, loc="upper right", ncol=2)
     ax.set_title("Minimum selling price of rTPA and where it goes")
     fig.tight_layout()
     return fig

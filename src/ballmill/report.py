@@ -22,6 +22,7 @@ from .files import read_json
 from .impacts import energy_spectrum
 from .plots import (
     FIGURES,
+    MSP_GROUPS,
     plot_dissipation_spectra,
     plot_impact_spectra,
     plot_lab_validation,
@@ -268,7 +269,7 @@ def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -
     """MSP per case with its band and breakdown; for one case (the paper's BPR 19, else the
     largest feed): what dominates, the tornado chart, the stream table and the equipment."""
     cols = [c for c in PLANT_COLUMNS if c in ok and ok[c].notna().any()]
-    breakdown = [c for c in ok if c.startswith("msp_") and c.endswith("_usd_per_kg")]
+    breakdown = [c for cols in MSP_GROUPS.values() for c in cols if c in ok]
     write_table(ok[cols + [c for c in breakdown if c not in cols]], out_dir / f"{name}_msp")
     at19 = ok[(ok.bpr - 19).abs() < 1e-9] if ok.region.isna().all() else ok.iloc[:0]
     case = (at19 if len(at19) else ok.sort_values("plant_fresh_pet_kg_per_h")).iloc[-1]
@@ -280,7 +281,7 @@ def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -
         write_table(frame, out_dir / f"{name}_{stem}")
     save_figure(plot_tornado(tornado, case.msp_usd_per_kg), out_dir / f"{name}_tornado")
     label = case_label(case.to_dict())
-    shares = {k: case[k] / case.msp_usd_per_kg for k in breakdown if k != "msp_usd_per_kg" and k in case}
+    shares = {k: case[k] / case.msp_usd_per_kg for k in breakdown}
     top = sorted(shares.items(), key=lambda kv: -abs(kv[1]))[:4]
     return ["## Whole plant: minimum selling price of rTPA", "", ok[cols].to_markdown(index=False, floatfmt=".4g"), "",
             f"### {label}: what dominates", "",

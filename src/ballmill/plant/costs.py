@@ -12,6 +12,7 @@ factors, see conf/plant/nrel.yaml); working capital a share of it.
 from __future__ import annotations
 
 import math
+from functools import cache
 
 import pandas as pd
 
@@ -29,13 +30,18 @@ def correlation_cost(row, size: float) -> float:
     return row.a + row.b * s**row.n
 
 
+@cache
+def correlations(name: str) -> dict:
+    """unit -> its correlation row (a named tuple) of the cost table `name`."""
+    return {row.unit: row for row in table(name).itertuples()}
+
+
 def purchase_costs(sizes: dict[str, float], cfg: PlantConfig, econ: EconomicsConfig) -> pd.DataFrame:
     """One row per unit: size, parallel units, purchase cost in the target year ($)."""
-    correlations = table(cfg.cost_file).set_index("unit")
     target = cepci(econ.cepci_target_year, econ)
     rows = []
     for unit, size in sizes.items():
-        row = correlations.loc[unit]
+        row = correlations(cfg.cost_file)[unit]
         lo, hi = row.s_min / row.to_correlation_unit, row.s_max / row.to_correlation_unit
         count = max(1, math.ceil(size / hi))
         each = max(size / count, lo)
