@@ -176,11 +176,15 @@ class MM400Config:
 def check_positive_lists(obj, path: str, names: tuple[str, ...]) -> None:
     """Each named list field is non-empty and every entry a positive number."""
     for name in names:
-        values = getattr(obj, name)
-        if not values:
-            raise ConfigError(f"{path}.{name}=[] is empty: give at least one value")
-        for i, v in enumerate(values):
-            _check_field(f"{path}.{name}[{i}]", v, {"range": (0.0, None, True, False)})
+        check_list(f"{path}.{name}", getattr(obj, name))
+
+
+def check_list(name: str, values: list, hi: float | None = None, lo_open: bool = True) -> None:
+    """A non-empty list of numbers in (0, hi] ([0, hi] when not lo_open)."""
+    if not values:
+        raise ConfigError(f"{name}=[] is empty: give at least one value")
+    for i, v in enumerate(values):
+        _check_field(f"{name}[{i}]", v, {"range": (0.0, hi, lo_open, False)})
 
 
 @dataclass
@@ -323,10 +327,7 @@ class CalibrationConfig:
                                           ("frictions", self.frictions, False, None),
                                           ("restitution_range", self.restitution_range, True, 1.0),
                                           ("friction_range", self.friction_range, False, None)):
-            if not values:
-                raise ConfigError(f"{name}=[] is empty: give at least one value")
-            for i, v in enumerate(values):
-                _check_field(f"{name}[{i}]", v, {"range": (0.0, hi, lo_open, False)})
+            check_list(name, values, hi, lo_open)
 
 
 @dataclass
