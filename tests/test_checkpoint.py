@@ -34,18 +34,39 @@ def test_a_killed_run_resumes_from_its_checkpoint_and_ends_with_identical_tables
     assert run(whole).wait(timeout=300) == 0
     proc = run(killed)
     deadline = time.time() + 300
-    while not (killed / "checkpoint.pkl").exists() and time.time() < deadline and proc.poll() is None:
+    while not (killed / "checkpoint.npz").exists() and time.time() < deadline and proc.poll() is None:
         time.sleep(0.05)
     time.sleep(0.5)  # let it run on past the first checkpoint
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
-    assert (killed / "checkpoint.pkl").exists() and not (killed / "dem_summary.json").exists()
+    assert (killed / "checkpoint.npz").exists() and not (killed / "dem_summary.json").exists()
     resumed = run(killed)
     _, err = resumed.communicate(timeout=300)
     assert resumed.returncode == 0, err
     assert "resumed from" in err
-    assert not (killed / "checkpoint.pkl").exists()  # a finished run leaves none behind
+    assert not (killed / "checkpoint.npz").exists()  # a finished run leaves none behind
     assert json.loads((killed / "dem_summary.json").read_text()) == json.loads((whole / "dem_summary.json").read_text())
     for table in ("loads", "energy", "collisions"):
         pd.testing.assert_frame_equal(pd.read_parquet(killed / f"{table}.parquet"),
                                       pd.read_parquet(whole / f"{table}.parquet"), check_exact=True)
+
+
+class Planted:
+    """Unpickling this would create a file: a checkpoint must never be unpickled."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def __reduce__(self):
+        return (open, (self.path, "w"))
+
+
+def test_a_pickle_planted_as_checkpoint_runs_no_code(tmp_path):
+    import pickle
+
+    from ballmill.dem import Checkpoint
+
+    planted = tmp_path / "checkpoint.npz"
+    planted.write_bytes(pickle.dumps(Planted(str(tmp_path / "pwned"))))
+    assert Checkpoint(planted, 0.1, "key").resume(None, None, "drum") == 0
+    assert not (tmp_path / "pwned").exists()

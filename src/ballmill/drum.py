@@ -199,7 +199,7 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
     log.info("drum DEM: %d balls, dt = %.3g s (%.0f %% of Rayleigh), %s neighbour search, %s steps",
              spec.n_particles, dt, 100 * dt / spec.rayleigh_timestep_s(), "grid" if engine.use_grid else "all-pairs",
              "serial" if engine.serial else "parallel")
-    checkpoint = Checkpoint(out_dir / "checkpoint.pkl", sim.checkpoint_every_s, key) if sim.checkpoint_every_s else None
+    checkpoint = Checkpoint(out_dir / "checkpoint.npz", sim.checkpoint_every_s, key) if sim.checkpoint_every_s else None
     after = sim.settle_s + sim.steady_after_s
     end = sim.settle_s + sim.duration_s
     sinks = (ParquetSink(out_dir), *((VtkWriter(out_dir, sim.vtk_every),) if sim.vtk_every else ()))

@@ -1,18 +1,60 @@
 """Checkpoint and restart: a run's full state (every engine field, the step, the recorder's
 samples so far) saved every so often, so that an interrupted run continues where it was and
-ends with the same bits as an uninterrupted one (same thread count)."""
+ends with the same bits as an uninterrupted one (same thread count).
+
+The file is a NumPy .npz read with allow_pickle=False: the arrays as they are, everything else
+as JSON text inside it (paths and object arrays marked so they come back as they were).  Cache
+folders are shared between cluster jobs, and loading it runs no code (a pickle could).
+"""
 
 from __future__ import annotations
 
+import json
 import logging
 import os
-import pickle
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from ..files import write_atomic
 
 log = logging.getLogger(__name__)
+META = "__meta__"
+
+
+def encode(obj, arrays: list[np.ndarray]):
+    """JSON-able form of obj; its arrays appended to `arrays` and referenced by index."""
+    if isinstance(obj, np.ndarray):
+        arrays.append(obj.astype(str) if obj.dtype == object else obj)
+        return {"__array__": len(arrays) - 1, "object": obj.dtype == object}
+    if isinstance(obj, Path):
+        return {"__path__": str(obj)}
+    if isinstance(obj, dict):
+        return {"__dict__": [[encode(k, arrays), encode(v, arrays)] for k, v in obj.items()]}
+    if isinstance(obj, tuple):
+        return {"__tuple__": [encode(v, arrays) for v in obj]}
+    if isinstance(obj, list):
+        return [encode(v, arrays) for v in obj]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+def decode(obj, arrays):
+    if isinstance(obj, list):
+        return [decode(v, arrays) for v in obj]
+    if not isinstance(obj, dict):
+        return obj
+    if "__array__" in obj:
+        array = arrays[f"a{obj['__array__']}"]
+        return array.astype(object) if obj["object"] else array
+    if "__path__" in obj:
+        return Path(obj["__path__"])
+    if "__tuple__" in obj:
+        return tuple(decode(v, arrays) for v in obj["__tuple__"])
+    return {decode(k, arrays): decode(v, arrays) for k, v in obj["__dict__"]}
 
 
 @dataclass(frozen=True)
@@ -26,12 +68,13 @@ class Checkpoint:
 
     def save(self, engine, recorder, next_sample: int, label: str) -> None:
         """Write the state atomically: a temporary file renamed over the last checkpoint."""
-        payload = {"key": self.key, "label": label, "next_sample": next_sample, "engine": engine.state(),
-                   "recorder": recorder.state()}
+        arrays: list[np.ndarray] = []
+        meta = encode({"key": self.key, "label": label, "next_sample": next_sample, "engine": engine.state(),
+                       "recorder": recorder.state()}, arrays)
 
         def dump(tmp: Path) -> None:
             with open(tmp, "wb") as f:
-                pickle.dump(payload, f, protocol=pickle.HIGHEST_PROTOCOL)
+                np.savez(f, **{META: np.array(json.dumps(meta))}, **{f"a{i}": a for i, a in enumerate(arrays)})
                 f.flush()
                 os.fsync(f.fileno())
 
@@ -44,9 +87,9 @@ class Checkpoint:
         if not path.exists():
             return 0
         try:
-            with open(path, "rb") as f:
-                payload = pickle.load(f)
-        except (OSError, EOFError, pickle.UnpicklingError) as exc:
+            with np.load(path, allow_pickle=False) as arrays:
+                payload = decode(json.loads(str(arrays[META])), arrays)
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
             log.warning("ignoring the unreadable checkpoint %s (%s)", path, exc)
             return 0
         if payload.get("key") != self.key or payload.get("label") != label:

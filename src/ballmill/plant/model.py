@@ -54,6 +54,8 @@ class Plant:
             "plant_mill_pet_kg_per_h": self.flows.mill_pet_kg_per_h,
             "plant_rtpa_t_per_yr": t, "plant_eg_kg_per_h": self.flows.streams["EG"]["eg"],
             **{f"plant_{k}": v for k, v in self.capital.items()},
+            **{f"plant_isbl_{u.lower().replace(' ', '_')}_usd": v
+               for u, v in self.equipment.set_index("unit").isbl_usd.items()},
             **{f"plant_{k}": v for k, v in self.flows.utilities.items()},
             "plant_opex_usd_per_yr": opex_total, **{f"plant_opex_{k}_usd_per_yr": v for k, v in self.opex.items()},
             "msp_usd_per_kg": self.msp_usd_per_t / 1000.0,
