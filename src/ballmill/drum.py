@@ -27,7 +27,9 @@ from .dem import (
     Results,
     SimulationError,
     SystemSpec,
+    available_memory_bytes,
     init_taichi,
+    memory_estimate_bytes,
 )
 from .dem.vtk import VtkWriter
 from .files import exclusive, read_json, write_json
@@ -37,6 +39,7 @@ from .scenario import engine_materials, engine_options, time_step_s
 
 log = logging.getLogger(__name__)
 AXIS = (0.0, 1.0, 0.0)  # drum axis; gravity is -z
+TYPICAL_RATE = 5e6  # particle-steps/s of a drum on two cores (see README, Benchmark): for the run's ETA line
 BED_SNAPSHOTS = 4  # particle states recorded at this many instants of the averaging window (bed picture)
 # The starting lattice: sites 2.04 r apart (2 % gaps, so no ball starts in contact) at least
 # 1.05 r from the walls (5 % clearance): a loose bed that settles in a fraction of a second.
@@ -153,11 +156,22 @@ def drum_spec(drum: DrumConfig, materials, interactions, sim: SimConfig) -> Syst
         raise ConfigError(f"mill.ball_radius_m={drum.ball_radius_m}: balls of {d_ball:g} m do not fit a drum of "
                           f"D {drum.inner_diameter_m:g} m x L {drum.inner_length_m:g} m "
                           "(at most a quarter of the smaller side)")
+    check_memory(ball_count(drum), sim)
     if drum.geometry == "stl" and drum.stl_path:
         check_stl(drum.stl_path)
     mats, pairs = engine_materials(materials, interactions, sim.shear_modulus_scale, drum.ball_material,
                                    drum.wall_material)
     return drum_system(drum, mats, pairs, sim)
+
+
+def check_memory(n_balls: int, sim: SimConfig) -> None:
+    """Refuse a drum whose engine would not fit in the memory this machine has now."""
+    need = memory_estimate_bytes(n_balls, sim.max_contacts_per_particle, sim.event_capacity)
+    have = available_memory_bytes()
+    if need > have:
+        raise ConfigError(f"mill: {n_balls:.4g} balls need about {need / 2**30:.3g} GiB for the DEM "
+                          f"({need / n_balls / 1e3:.2g} kB per ball), more than the {have / 2**30:.3g} GiB available "
+                          "here: lower the feed or the residence time, or use larger balls")
 
 
 def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
@@ -196,9 +210,12 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
     dt = time_step_s(spec, sim)
     init_taichi(sim.arch, sim.precision, sim.threads, sim.seed)
     engine = Engine(spec, engine_options(sim, dt))
-    log.info("drum DEM: %d balls, dt = %.3g s (%.0f %% of Rayleigh), %s neighbour search, %s steps",
-             spec.n_particles, dt, 100 * dt / spec.rayleigh_timestep_s(), "grid" if engine.use_grid else "all-pairs",
-             "serial" if engine.serial else "parallel")
+    steps = (sim.settle_s + sim.duration_s) / dt
+    log.info("drum DEM: %d balls, dt = %.3g s (%.0f %% of Rayleigh), %s neighbour search, %s steps; %.3g "
+             "particle-steps to go (about %.2g min at %.0e particle-steps/s)", spec.n_particles, dt,
+             100 * dt / spec.rayleigh_timestep_s(), "grid" if engine.use_grid else "all-pairs",
+             "serial" if engine.serial else "parallel", steps * spec.n_particles,
+             steps * spec.n_particles / TYPICAL_RATE / 60, TYPICAL_RATE)
     checkpoint = Checkpoint(out_dir / "checkpoint.npz", sim.checkpoint_every_s, key) if sim.checkpoint_every_s else None
     after = sim.settle_s + sim.steady_after_s
     end = sim.settle_s + sim.duration_s

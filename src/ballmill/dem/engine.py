@@ -45,12 +45,20 @@ GRID_MIN_PARTICLES = 8
 # Up to this many particles, whole steps run serially in one launch: a parallel loop costs
 # ~40-60 us to dispatch on a CPU, more than a whole step of a few thousand balls.
 SERIAL_MAX_PARTICLES = 3000
+# Memory of the engine's fields, measured on a 3,645-ball drum (f64): 525 B per particle plus
+# 244 B per contact slot (4.4 kB at 16 slots), 32 B per buffered collision.
+PARTICLE_BYTES, SLOT_BYTES, EVENT_BYTES = 525, 244, 32
 DRIFT, POSE, PAIRS, FINISH = 1, 2, 4, 8  # phases of a step
 STEP = DRIFT | POSE | PAIRS | FINISH
 
 
 class SimulationError(RuntimeError):
     """The run went unphysical; the message says what happened and what to change."""
+
+
+def memory_estimate_bytes(n_particles: int, max_contacts: int, event_capacity: int) -> float:
+    """Memory the engine's fields will take (bytes, f64)."""
+    return n_particles * (PARTICLE_BYTES + SLOT_BYTES * max_contacts) + EVENT_BYTES * event_capacity
 
 
 @dataclass(frozen=True)

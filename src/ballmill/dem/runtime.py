@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import taichi as ti
 
 ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda}
@@ -34,3 +36,15 @@ def init_taichi(arch: str = "cpu", precision: str = "f64", threads: int = 0, see
         raise RuntimeError(
             "sim.arch=cuda was asked for but Taichi found no CUDA device; use sim.arch=cpu here"
         )
+
+
+def available_memory_bytes() -> float:
+    """Memory the machine can give now (MemAvailable of /proc/meminfo; else the free pages)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
