@@ -176,9 +176,11 @@ def plan_design(s: Scenario) -> Plan:
     if line is not None:
         record |= line_record()
 
+    def pet_holdup_kg(design) -> float:
+        return design.pet_feed_kg_per_h * design.residence_time_min / 60
+
     def evaluate_mill(design, run: DrumRun) -> dict:
-        pet_kg = design.pet_feed_kg_per_h * design.residence_time_min / 60
-        rates = run_dose(run, pet_kg, s)
+        rates = run_dose(run, pet_holdup_kg(design), s)
         minutes = design.residence_time_min
         doses = {f"{m.removesuffix('_power_w_per_kg')}_dose_kj_per_kg_pet": dose_j_per_kg(rates[m], minutes) / 1e3
                  for m in ("collision_power_w_per_kg", "impact_power_w_per_kg")}
@@ -206,7 +208,7 @@ def plan_design(s: Scenario) -> Plan:
             d = design_mill(replace(scale, residence_time_min=tau_min))
             run, dem_dir = run_drum(s, mill_drum(s, d))
             mills[tau_min] = d, dem_dir
-            rates = run_dose(run, d.pet_feed_kg_per_h * tau_min / 60, s)
+            rates = run_dose(run, pet_holdup_kg(d), s)
             return rates[line.measure], rates[f"{line.measure}_se"]
 
         fp = solve_residence_time(scale.residence_time_min, line.dose_for(target), rate_at, model.tolerance,

@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .config import ConfigError, YieldModelConfig
-from .data import lookup
 from .dose import dose_j_per_kg
+from .scaleup import stoichiometric_naoh_kg_per_h
 
 
 class NotConverged(RuntimeError):
@@ -56,11 +56,7 @@ def cap(y: float) -> float:
 def pet_fraction(basis: str) -> float:
     """PET's share of the powder a BPR is counted on: PET + stoichiometric NaOH (2 mol per repeat
     unit), or PET alone."""
-    if basis == "pet":
-        return 1.0
-    pet = lookup("molar_masses.csv", "species", "pet_repeat_unit", "molar_mass_g_per_mol")
-    naoh = lookup("molar_masses.csv", "species", "naoh", "molar_mass_g_per_mol")
-    return pet / (pet + 2 * naoh)
+    return 1.0 if basis == "pet" else 1.0 / (1.0 + stoichiometric_naoh_kg_per_h(1.0))
 
 
 @dataclass(frozen=True)
