@@ -109,6 +109,15 @@ def bench_cmd(cfg: DictConfig) -> None:
     main(options(cfg, "bench"))
 
 
+def surrogate_cmd(cfg: DictConfig) -> None:
+    from .surrogate.training import train_table, write_table
+
+    opts, s = options(cfg, "surrogate"), scenario_of(cfg)
+    table = train_table(s, opts)
+    path = write_table(table, s, opts, Path(opts.out))
+    print(f"{path}: {len(table)} runs, {int((table.status != 'ok').sum())} failed")
+
+
 @dataclass(frozen=True)
 class Command:
     summary: str
@@ -127,6 +136,8 @@ COMMANDS = {
     "render": Command("simulate the MM400 conditions and film them: videos + videos.csv", render_cmd, LAB_GROUPS),
     "calibrate": Command("fit the ball-wall restitution and friction to tracked videos", calibrate_cmd, LAB_GROUPS),
     "bench": Command("DEM throughput (particle-steps/s) on the reference drum", bench_cmd),
+    "surrogate": Command("train the DEM surrogate on a space-filling design; its error table", surrogate_cmd,
+                         RUN_GROUPS),
 }
 
 

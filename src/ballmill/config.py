@@ -293,6 +293,75 @@ class PlantConfig:
                               f"{sum(self.construction_fractions):g}: they must sum to 1")
 
 
+def check_interval(name: str, values: list, lo: float | None = None, hi: float | None = None) -> None:
+    """[low, high] with low < high, both within [lo, hi]."""
+    if len(values) != 2 or not values[0] < values[1]:
+        raise ConfigError(f"{name}={values}: give [low, high] with low < high")
+    for i, v in enumerate(values):
+        _check_field(f"{name}[{i}]", v, {"range": (lo, hi, False, False)})
+
+
+@dataclass
+class DemConfig:
+    """Where a design's power and collision dose come from: the DEM of its mill (full) or the
+    surrogate fitted to DEM runs (milliseconds; its predicted uncertainty is recorded)."""
+
+    mode: str = field(default="full", metadata={"choices": ("full", "surrogate")})
+    table: str = field(default="surrogate_training.csv", metadata={
+        "doc": "the surrogate's training table: a data/ table or a path (from `ballmill surrogate`)"})
+    allow_extrapolation: bool = field(default=False, metadata={
+        "doc": "evaluate designs outside the hull of the training runs (refused otherwise)"})
+
+
+@dataclass
+class SurrogateBounds:
+    """The training box of the surrogate's dimensionless inputs, [low, high] each."""
+
+    fraction_of_critical: list[float] = field(default_factory=lambda: [0.3, 0.9],
+                                             metadata={"doc": "mill speed / critical speed"})
+    fill_fraction: list[float] = field(default_factory=lambda: [0.2, 0.45],
+                                      metadata={"doc": "ball bed volume / mill volume"})
+    length_to_diameter: list[float] = field(default_factory=lambda: [0.75, 2.5],
+                                           metadata={"doc": "mill length / diameter"})
+    diameter_to_ball: list[float] = field(default_factory=lambda: [5.0, 22.0],
+                                         metadata={"doc": "mill diameter / ball diameter"})
+    restitution: list[float] = field(default_factory=lambda: [0.3, 0.8],
+                                    metadata={"doc": "ball-ball and ball-wall restitution"})
+    friction: list[float] = field(default_factory=lambda: [0.2, 0.8],
+                                 metadata={"doc": "ball-ball and ball-wall sliding friction"})
+
+    def __post_init__(self):
+        hi = {"fraction_of_critical": 1.5, "fill_fraction": 0.6, "restitution": 1.0}
+        for f in dataclasses.fields(self):
+            check_interval(f"bounds.{f.name}", getattr(self, f.name), 0.0, hi.get(f.name))
+
+
+@dataclass
+class OptimiserConfig:
+    """The cheapest mill (study=cheapest_mill): the knobs' ranges, the search and its seed.
+    The ball is at least min_ball_to_feed x the feed's particle size (and within ball_radius_m)."""
+
+    fraction_of_critical: list[float] = field(default_factory=lambda: [0.3, 0.9],
+                                             metadata={"doc": "speed / critical speed (at most 0.9)"})
+    fill_fraction: list[float] = field(default_factory=lambda: [0.2, 0.45],
+                                      metadata={"doc": "ball bed volume / mill volume"})
+    ball_radius_m: list[float] = field(default_factory=lambda: [0.04, 0.08],
+                                      metadata={"doc": "ball radius (m)"})
+    length_to_diameter: list[float] = field(default_factory=lambda: [0.75, 2.5],
+                                           metadata={"doc": "mill length / diameter"})
+    feed_particle_size_m: float = rng(0.012, 0.0, None, lo_open=True, doc="largest PET flake (m)")
+    min_ball_to_feed: float = rng(5.0, 1.0, None, doc="smallest ball diameter / feed particle size")
+    trials: int = rng(300, 10, None, doc="designs the search evaluates (surrogate)")
+    seed: int = rng(0, 0, None, doc="sampler seed: the same seed gives the same optimum")
+    confirm: bool = field(default=True, metadata={"doc": "run the full DEM of the optimum and of the paper's mill"})
+
+    def __post_init__(self):
+        check_interval("optimiser.fraction_of_critical", self.fraction_of_critical, 0.0, 0.9)
+        check_interval("optimiser.fill_fraction", self.fill_fraction, 0.2, 0.45)
+        check_interval("optimiser.ball_radius_m", self.ball_radius_m, 0.0)
+        check_interval("optimiser.length_to_diameter", self.length_to_diameter, 0.0)
+
+
 # The MM400 fields no source pins down (estimates): lab runs report them beside their results.
 MM400_GEOMETRY = ("jar_volume_ml", "jar_inner_diameter_m", "amplitude_m", "pivot_radius_m")
 
@@ -311,9 +380,9 @@ class CalibrationConfig:
     collision_weight: float = rng(1.0, 0.0, None, doc="weight of the collision-rate error beside the speed error")
     repeats: int = rng(1, 1, None, doc="starts simulated per condition and pair, averaged (less noise)")
     restitution_range: list[float] = field(default_factory=lambda: [0.3, 0.9],
-                                           metadata={"doc": "Optuna: [low, high] of the restitution"})
+                                            metadata={"doc": "Optuna: [low, high] of the restitution"})
     friction_range: list[float] = field(default_factory=lambda: [0.1, 0.5],
-                                        metadata={"doc": "Optuna: [low, high] of the friction"})
+                                         metadata={"doc": "Optuna: [low, high] of the friction"})
     trials: int = rng(25, 1, None, doc="Optuna: pairs tried (the default grid has 25)")
     batch: int = rng(5, 1, None, doc="Optuna: pairs simulated together in one launch")
     startup_trials: int = rng(5, 1, None, doc="Optuna: random pairs before the TPE model takes over")
@@ -345,7 +414,8 @@ class StudyConfig:
     """What a run does (a pipeline of studies.STUDIES) and how its sweep is reported."""
 
     name: str = "design"
-    kind: str = field(default="design", metadata={"choices": ("design", "drum", "lab", "yield_calibration", "plant")})
+    kind: str = field(default="design", metadata={"choices": ("design", "drum", "lab", "yield_calibration", "plant",
+                                                                 "cheapest_mill")})
     observations: str | None = field(default=None, metadata={"doc": "observations.csv drawn beside a lab study"})
     report: StudyReport = field(default_factory=StudyReport)
 
@@ -389,7 +459,7 @@ class BenchConfig:
     """`ballmill bench`: DEM throughput (particle-steps/s) on the reference drum."""
 
     cases: list[str] = field(default_factory=lambda: ["1000", "8640", "bpr19"],
-                             metadata={"doc": "ball counts of the scaled reference drum, or bpr19"})
+                              metadata={"doc": "ball counts of the scaled reference drum, or bpr19"})
     arch: str = field(default="cpu", metadata={"choices": ("cpu", "cuda")})
     precision: str = field(default="f64", metadata={"choices": ("f64", "f32")})
     threads: int = rng(0, 0, None, doc="CPU threads (0: all cores)")
@@ -404,6 +474,28 @@ class BenchConfig:
     json: str = field(default="outputs/bench/bench.json", metadata={"doc": "where the figures are written"})
 
 
+@dataclass
+class SurrogateConfig:
+    """`ballmill surrogate`: DEM runs of drums on a space-filling design of the dimensionless
+    groups (scrambled Sobol for training, a Latin hypercube inside its hull held out), each
+    cached like any drum run; the training table; the model's cross-validated and held-out error."""
+
+    bounds: SurrogateBounds = field(default_factory=SurrogateBounds)
+    points: int = rng(64, 8, None, doc="training runs (a power of two: Sobol)")
+    holdout: int = rng(16, 0, None, doc="runs held out of training to measure the error")
+    seed: int = rng(0, 0, None)
+    ball_radius_m: float = rng(0.08, 0.0, None, lo_open=True, doc="ball of every run (the diameter ratio sets D)")
+    startup_revolutions: float = rng(0.5, 0.0, None, doc="turning before the averaging window")
+    window_revolutions: float = rng(1.0, 0.0, None, lo_open=True, doc="averaging window")
+    jobs: int = rng(2, 1, None, doc="runs in parallel (one Taichi thread each)")
+    folds: int = rng(5, 2, None, doc="k of the k-fold cross-validation")
+    out: str = field(default="outputs/surrogate", metadata={"doc": "training table, errors, figure"})
+
+    def __post_init__(self):
+        if self.points & (self.points - 1):
+            raise ConfigError(f"points={self.points}: a Sobol design needs a power of two (32, 64, 128, ...)")
+
+
 def register() -> None:
     """Schemas for the config groups, so Hydra type-checks them when composing."""
     cs = ConfigStore.instance()
@@ -415,13 +507,15 @@ def register() -> None:
     cs.store(group="study", name="base_study", node=StudyConfig)
     cs.store(group="yield_model", name="base_yield_model", node=YieldModelConfig)
     cs.store(group="plant", name="base_plant", node=PlantConfig)
+    cs.store(group="dem", name="base_dem", node=DemConfig)
+    cs.store(group="optimiser", name="base_optimiser", node=OptimiserConfig)
     for name, node in COMMANDS.items():
         cs.store(name=f"base_{name}", node=node)
 
 
 # The options of each command other than `run` (its config is conf/<command>.yaml).
 COMMANDS = {"track": TrackConfig, "render": RenderConfig, "calibrate": CalibrationConfig, "report": ReportConfig,
-            "bench": BenchConfig}
+            "bench": BenchConfig, "surrogate": SurrogateConfig}
 
 
 def _check_field(path: str, value, meta) -> None:

@@ -19,11 +19,13 @@ from omegaconf import DictConfig
 from .config import (
     CONF_DIR,
     ConfigError,
+    DemConfig,
     DrumConfig,
     EconomicsConfig,
     InteractionConfig,
     MaterialConfig,
     MM400Config,
+    OptimiserConfig,
     PlantConfig,
     ScaleupConfig,
     SimConfig,
@@ -78,6 +80,8 @@ class Scenario:
     lab: MM400Config
     yield_model: YieldModelConfig
     plant: PlantConfig
+    dem: DemConfig
+    optimiser: OptimiserConfig
     materials: dict[str, MaterialConfig]
     interactions: dict[str, InteractionConfig]
     cache_dir: Path
@@ -91,7 +95,8 @@ def load(cfg: DictConfig) -> Scenario:
         economics=to_object(cfg.economics, EconomicsConfig, "economics"),
         lab=to_object(cfg.lab, MM400Config, "lab"),
         yield_model=to_object(cfg.yield_model, YieldModelConfig, "yield_model"),
-        plant=to_object(cfg.plant, PlantConfig, "plant"), materials=materials, interactions=interactions,
+        plant=to_object(cfg.plant, PlantConfig, "plant"), dem=to_object(cfg.dem, DemConfig, "dem"),
+        optimiser=to_object(cfg.optimiser, OptimiserConfig, "optimiser"), materials=materials, interactions=interactions,
         cache_dir=Path(cfg.cache_dir),
     )
 
