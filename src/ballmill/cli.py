@@ -110,12 +110,42 @@ def bench_cmd(cfg: DictConfig) -> None:
 
 
 def surrogate_cmd(cfg: DictConfig) -> None:
+    from .plots import plot_surrogate_parity, save_figure
+    from .surrogate.model import describe, error_table
+    from .surrogate.space import OUTPUTS
     from .surrogate.training import train_table, write_table
 
     opts, s = options(cfg, "surrogate"), scenario_of(cfg)
     table = train_table(s, opts)
     path = write_table(table, s, opts, Path(opts.out))
-    print(f"{path}: {len(table)} runs, {int((table.status != 'ok').sum())} failed")
+    runs, summary = error_table(table, opts.folds, opts.seed)
+    runs.to_csv(path.parent / "surrogate_errors_per_run.csv", index=False)
+    summary.to_csv(path.parent / "surrogate_errors.csv", index=False)
+    save_figure(plot_surrogate_parity(runs, OUTPUTS), path.parent / "surrogate_parity")
+    print(f"{path}: {len(table)} runs, {int((table.status != 'ok').sum())} failed; errors (surrogate_errors.csv):")
+    print(describe(summary))
+
+
+def compare_cmd(cfg: DictConfig) -> None:
+    import pandas as pd
+
+    from .surrogate.check import compare_sweep
+    from .surrogate.model import load
+
+    opts = options(cfg, "compare")
+    if not opts.sweeps:
+        raise ConfigError("sweeps=[] is empty: give sweeps=[outputs/sweeps/NAME,...]")
+    model = load(opts.table)
+    table = pd.concat([compare_sweep(Path(d), model).assign(sweep=d) for d in opts.sweeps], ignore_index=True)
+    Path(opts.out).parent.mkdir(parents=True, exist_ok=True)
+    table.to_csv(opts.out, index=False)
+    shown = table[["sweep", "job", "inside_hull", "dem_power_w", "surrogate_power_w", "power_error",
+                   "collision_power_error"]]
+    print(shown.to_markdown(index=False, floatfmt=".4g"))
+    inside = table[table.inside_hull]
+    print(f"{opts.out}: {len(table)} jobs, {len(inside)} inside the training hull; |power error| median "
+          f"{100 * inside.power_error.abs().median():.1f} %, 90th percentile {100 * inside.power_error.abs().quantile(0.9):.1f} % "
+          "inside the hull")
 
 
 @dataclass(frozen=True)
@@ -138,6 +168,7 @@ COMMANDS = {
     "bench": Command("DEM throughput (particle-steps/s) on the reference drum", bench_cmd),
     "surrogate": Command("train the DEM surrogate on a space-filling design; its error table", surrogate_cmd,
                          RUN_GROUPS),
+    "compare": Command("the surrogate against the DEM on finished sweeps (power, collision power)", compare_cmd),
 }
 
 

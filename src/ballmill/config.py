@@ -119,7 +119,7 @@ class ScaleupConfig:
     bed_porosity: float = rng(0.4, 0.0, 1.0, hi_open=True)
     ball_radius_m: float = rng(0.08, 0.0, None, lo_open=True)
     ball_density_kg_per_m3: float = rng(7900.0, 0.0, None, lo_open=True)
-    speed_rpm: float = rng(15.0, 0.0, None, lo_open=True)
+    speed_rpm: float | None = rng(15.0, 0.0, None, lo_open=True, doc="null: fraction_of_critical x critical speed")
     shape_rule: str = field(default="length_to_diameter", metadata={"choices": ("length_to_diameter", "fraction_of_critical")})
     length_to_diameter: float = rng(1.5, 0.0, None, lo_open=True)
     fraction_of_critical: float = rng(0.7, 0.0, 1.5, lo_open=True)
@@ -311,6 +311,8 @@ class DemConfig:
         "doc": "the surrogate's training table: a data/ table or a path (from `ballmill surrogate`)"})
     allow_extrapolation: bool = field(default=False, metadata={
         "doc": "evaluate designs outside the hull of the training runs (refused otherwise)"})
+    startup_revolutions: float = rng(0.5, 0.0, None, doc="surrogate runs: turning before the averaging window")
+    window_revolutions: float = rng(1.0, 0.0, None, lo_open=True, doc="surrogate runs: averaging window")
 
 
 @dataclass
@@ -478,15 +480,14 @@ class BenchConfig:
 class SurrogateConfig:
     """`ballmill surrogate`: DEM runs of drums on a space-filling design of the dimensionless
     groups (scrambled Sobol for training, a Latin hypercube inside its hull held out), each
-    cached like any drum run; the training table; the model's cross-validated and held-out error."""
+    cached like any drum run and averaged over dem.window_revolutions after
+    dem.startup_revolutions; the training table; the model's cross-validated and held-out error."""
 
     bounds: SurrogateBounds = field(default_factory=SurrogateBounds)
     points: int = rng(64, 8, None, doc="training runs (a power of two: Sobol)")
     holdout: int = rng(16, 0, None, doc="runs held out of training to measure the error")
     seed: int = rng(0, 0, None)
     ball_radius_m: float = rng(0.08, 0.0, None, lo_open=True, doc="ball of every run (the diameter ratio sets D)")
-    startup_revolutions: float = rng(0.5, 0.0, None, doc="turning before the averaging window")
-    window_revolutions: float = rng(1.0, 0.0, None, lo_open=True, doc="averaging window")
     jobs: int = rng(2, 1, None, doc="runs in parallel (one Taichi thread each)")
     folds: int = rng(5, 2, None, doc="k of the k-fold cross-validation")
     out: str = field(default="outputs/surrogate", metadata={"doc": "training table, errors, figure"})
@@ -494,6 +495,16 @@ class SurrogateConfig:
     def __post_init__(self):
         if self.points & (self.points - 1):
             raise ConfigError(f"points={self.points}: a Sobol design needs a power of two (32, 64, 128, ...)")
+
+
+@dataclass
+class CompareConfig:
+    """`ballmill compare`: the surrogate against the DEM on finished sweeps: every job whose power
+    came from the DEM, its mill predicted by the surrogate; the errors per job and their summary."""
+
+    sweeps: list[str] = field(default_factory=list, metadata={"doc": "sweep folders of `ballmill run -m`"})
+    table: str = field(default="surrogate_training.csv", metadata={"doc": "the surrogate's training table"})
+    out: str = field(default="outputs/surrogate/compare.csv", metadata={"doc": "the per-job table"})
 
 
 def register() -> None:
@@ -515,7 +526,7 @@ def register() -> None:
 
 # The options of each command other than `run` (its config is conf/<command>.yaml).
 COMMANDS = {"track": TrackConfig, "render": RenderConfig, "calibrate": CalibrationConfig, "report": ReportConfig,
-            "bench": BenchConfig, "surrogate": SurrogateConfig}
+            "bench": BenchConfig, "surrogate": SurrogateConfig, "compare": CompareConfig}
 
 
 def _check_field(path: str, value, meta) -> None:

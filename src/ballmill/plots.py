@@ -263,10 +263,47 @@ def plot_tornado(tornado: pd.DataFrame, base_usd_per_kg: float):
     return fig
 
 
+def plot_surrogate_parity(runs: pd.DataFrame, outputs: tuple[str, ...]):
+    """Surrogate against DEM, one panel per output, one marker per set (training fit,
+    cross-validation, held out); the 10 % band shaded."""
+    fig, axes = plt.subplots(1, len(outputs), figsize=(5 * len(outputs), 4.5))
+    for ax, name in zip(np.atleast_1d(axes), outputs):
+        for (split, part), marker in zip(runs.groupby("split", sort=False), "o^s"):
+            ax.errorbar(part[f"{name}_dem"], part[f"{name}_predicted"], xerr=part[f"{name}_dem_se"], fmt=marker,
+                        ms=4, alpha=0.7, label=split)
+        lo, hi = runs[f"{name}_dem"].min() * 0.9, runs[f"{name}_dem"].max() * 1.1
+        line = np.array([lo, hi])
+        ax.fill_between(line, 0.9 * line, 1.1 * line, color="0.9", label="10 %")
+        ax.plot(line, line, "k-", lw=0.8)
+        ax.set(xlabel=f"{name.replace('_', ' ')}, DEM", ylabel="surrogate", xlim=(lo, hi), ylim=(lo, hi))
+    np.atleast_1d(axes)[0].legend()
+    fig.tight_layout()
+    return fig
+
+
+def plot_cheapest_mill(table: pd.DataFrame):
+    """Annualised mill cost per case: the paper's mill against the cheapest (surrogate bars, DEM
+    confirmations as markers where they ran)."""
+    by = "region" if table["region"].notna().any() else "bpr"
+    t = table.sort_values("paper_annualised_cost_usd_per_yr")
+    x = np.arange(len(t))
+    fig, ax = plt.subplots(figsize=(max(5, 0.8 * len(t) + 2), 4))
+    for offset, label in ((-0.2, "paper"), (0.2, "optimum")):
+        ax.bar(x + offset, t[f"{label}_annualised_cost_usd_per_yr"] / 1e3, 0.4, label=f"{label} mill (surrogate)")
+        if f"{label}_dem_annualised_cost_usd_per_yr" in t:
+            ax.plot(x + offset, t[f"{label}_dem_annualised_cost_usd_per_yr"] / 1e3, "k_", ms=14, mew=2)
+    ax.plot([], [], "k_", ms=14, mew=2, label="DEM confirmation")
+    ax.set_xticks(x, t[by].astype(str))
+    ax.set(ylabel="annualised mill cost (k$/yr)", xlabel=by)
+    ax.legend()
+    fig.tight_layout()
+    return fig
+
+
 # Figures a study's report may name (study.report.figure): each draws one from the sweep's records.
 FIGURES = {"fig3b": plot_fig3b, "fig4": plot_fig4, "scaleup_rule": lambda t: plot_scaleup_rule(with_rule_labels(t)),
            "plant_msp": lambda t: plot_msp(t, "bpr", "ball-to-powder ratio (BPR)"),
-           "plant_states": lambda t: plot_msp(t, "region", "state (by PET feed)")}
+           "plant_states": lambda t: plot_msp(t, "region", "state (by PET feed)"), "cheapest_mill": plot_cheapest_mill}
 
 
 def with_rule_labels(table: pd.DataFrame) -> pd.DataFrame:

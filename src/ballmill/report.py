@@ -291,6 +291,34 @@ def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -
             "Equipment:", "", equipment.to_markdown(index=False, floatfmt=".4g"), ""]
 
 
+def cheapest_mill_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
+    """Per case: the paper's mill against the cheapest (knobs, residence time, power, annualised
+    cost) by the surrogate and by the DEM confirmation; the cost saved; what each knob is worth."""
+    rows = []
+    for rec in ok.to_dict("records"):
+        label = f"{case_label(rec)} ({rec['yield_rule']})"
+        for mill in ("paper", "optimum"):
+            dem = rec.get(f"{mill}_dem_annualised_cost_usd_per_yr", np.nan)
+            rows.append({"case": label, "mill": mill, "speed / critical": rec[f"{mill}_fraction_of_critical"],
+                         "fill": rec[f"{mill}_fill_fraction"],
+                         "ball radius (m)": rec[f"{mill}_ball_radius_m"],
+                         "L/D": rec[f"{mill}_length_m"] / rec[f"{mill}_diameter_m"],
+                         "D (m)": rec[f"{mill}_diameter_m"], "residence (min)": rec[f"{mill}_residence_time_min"],
+                         "balls": rec[f"{mill}_ball_count"], "power kW (surrogate)": rec[f"{mill}_dem_power_w"] / 1e3,
+                         "power kW (DEM)": rec.get(f"{mill}_dem_dem_power_w", np.nan) / 1e3,
+                         "k$/yr (surrogate)": rec[f"{mill}_annualised_cost_usd_per_yr"] / 1e3,
+                         "k$/yr (DEM)": dem / 1e3, "inside hull": rec[f"{mill}_dem_inside_hull"]})
+    table = pd.DataFrame(rows)
+    write_table(table, out_dir / f"{name}_mills")
+    knobs = ok[["region", "bpr", "yield_rule", "cost_saved_fraction",
+                *[c for c in ("cost_saved_fraction_dem",) if c in ok],
+                *[c for c in ok if c.startswith("knob_")]]]
+    return ["## The cheapest mill", "", table.to_markdown(index=False, floatfmt=".4g"), "",
+            "Cost saved, and the optimum's cost increase with one knob back at the paper's value:", "",
+            knobs.rename(columns=lambda c: c.removeprefix("knob_").removesuffix("_cost_increase_fraction")).to_markdown(
+                index=False, floatfmt=".3g"), ""]
+
+
 # The parts a study's report may name (study.report.sections), in the order it lists them.
 SECTIONS = {
     "design_table": lambda name, ok, spec, out: design_table(name, ok, spec),
@@ -301,6 +329,7 @@ SECTIONS = {
     "scaleup_rule": scaleup_rule_lines,
     "yield_calibration": yield_calibration_lines,
     "plant": plant_lines,
+    "cheapest_mill": cheapest_mill_lines,
 }
 
 

@@ -3,7 +3,8 @@
 Hold-up = (PET + NaOH) feed x residence time; balls = BPR x hold-up; the ball bed
 (balls / (1 - porosity)) fills `fill_fraction` of the mill.  The mill's shape is fixed by
 one rule: a length-to-diameter ratio, or running `speed_rpm` at a fraction of the critical
-speed N_c = 42.3 / sqrt(D - d) rpm.
+speed N_c = 42.3 / sqrt(D - d) rpm.  With the first rule, speed_rpm null runs the mill at that
+fraction of its critical speed.
 """
 
 from __future__ import annotations
@@ -78,6 +79,9 @@ def design_mill(cfg: ScaleupConfig) -> MillDesign:
     d_ball = 2 * cfg.ball_radius_m
     if cfg.shape_rule == "length_to_diameter":
         diameter = (4 * volume / (math.pi * cfg.length_to_diameter)) ** (1 / 3)
+    elif cfg.speed_rpm is None:
+        raise ConfigError("scaleup.shape_rule=fraction_of_critical sizes the diameter from scaleup.speed_rpm: give it "
+                          "(null runs the mill at fraction_of_critical with the length_to_diameter rule)")
     else:
         diameter = d_ball + (42.3 * cfg.fraction_of_critical / cfg.speed_rpm) ** 2
     length = volume / (math.pi / 4 * diameter**2)
@@ -85,9 +89,10 @@ def design_mill(cfg: ScaleupConfig) -> MillDesign:
         raise ConfigError(f"scaleup.ball_radius_m={cfg.ball_radius_m}: balls of {d_ball:g} m do not fit a mill of "
                           f"D {diameter:.3g} m x L {length:.3g} m (at most a quarter of the smaller side)")
     n_crit = critical_speed_rpm(diameter, d_ball)
+    speed = cfg.speed_rpm if cfg.speed_rpm is not None else cfg.fraction_of_critical * n_crit
     return MillDesign(
         pet_feed_kg_per_h=pet, naoh_feed_kg_per_h=naoh, residence_time_min=cfg.residence_time_min, holdup_kg=holdup,
         ball_mass_kg=ball_mass, ball_count=max(1, round(ball_mass / one_ball)), ball_radius_m=cfg.ball_radius_m,
-        mill_volume_m3=volume, diameter_m=diameter, length_m=length, speed_rpm=cfg.speed_rpm,
-        critical_speed_rpm=n_crit, fraction_of_critical=cfg.speed_rpm / n_crit,
+        mill_volume_m3=volume, diameter_m=diameter, length_m=length, speed_rpm=speed,
+        critical_speed_rpm=n_crit, fraction_of_critical=speed / n_crit,
     )

@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 import math
 import os
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -23,7 +24,7 @@ import pandas as pd
 
 from .config import MM400_GEOMETRY, ConfigError, DrumConfig, SimConfig
 from .dem import SimulationError, SystemSpec
-from .dose import dose_j_per_kg, dose_rates, with_basis
+from .dose import MEASURES, dose_j_per_kg, dose_rates, with_basis
 from .drum import DrumRun, ball_count, dem_key, drum_spec, simulate_drum
 from .economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
 from .lab import conditions, jar_ball_mass_kg, mm400_spec, simulate_mm400, summarise, wall_interaction
@@ -44,12 +45,17 @@ from .plant.uncertainty import monte_carlo, tornado
 from .plots import plot_bed, plot_drum_loads, save_figure
 from .scaleup import design_mill
 from .scenario import Scenario, time_step_s
-from .yields import MEASURE, bpr_line_yield, fit_dose_line, line_yield, solve_residence_time
+from .surrogate.model import load as load_surrogate
+from .surrogate.model import predict_drum
+from .surrogate.optimise import KNOBS, annualised_cost_usd_per_yr, design_knobs, knob_ranges, knob_scaleup, minimise
+from .surrogate.training import revolution_sim
+from .yields import MEASURE, DoseLine, NotConverged, bpr_line_yield, fit_dose_line, line_yield, solve_residence_time
 
 log = logging.getLogger(__name__)
 DT_WARN_FRACTION = 0.4  # LIGGGHTS and EDEM advise 20-40 % of the Rayleigh step; warn above
 DENSE_BED_CONTACTS = 12  # a ball in a dense bed touches up to 12 others (plus walls)
 MIN_SAMPLES = 2  # a mean power needs samples; its standard error needs many (10 batches)
+INFEASIBLE_USD = 1e12  # an optimiser trial's cost when its mill cannot be built (the trial is marked infeasible)
 
 
 @dataclass
@@ -133,6 +139,9 @@ def run_dose(run: DrumRun, mass_kg: float, s: Scenario) -> dict:
 
 def plan_drum(s: Scenario) -> Plan:
     """The mill group's drum as configured: torque, power, and dose rates per kg of balls."""
+    if s.dem.mode != "full":
+        raise ConfigError("dem=surrogate: study=drum is the DEM of the mill group's drum; the surrogate serves "
+                          "study=design, plant and cheapest_mill")
     check_window(s.sim)
     check_numerics(drum_spec(s.mill, s.materials, s.interactions, s.sim), s.sim, "mill")
 
@@ -149,80 +158,146 @@ def mill_drum(s: Scenario, design) -> DrumConfig:
                    ball_radius_m=design.ball_radius_m, ball_count=design.ball_count, speed_rpm=design.speed_rpm)
 
 
-def plan_design(s: Scenario) -> Plan:
-    """Scale-up of the feed to a mill, whose DEM gives the power and the collision dose; the
-    yield model's yield (under an energy rule with a target, the residence time that reaches
-    it); costs and margin."""
-    scale, econ, model = s.scaleup, s.economics, s.yield_model
-    check_window(s.sim)
-    line_y, extrapolated = bpr_line_yield(scale.bpr, model)  # an out-of-range BPR is refused here
-    design = design_mill(scale)
-    purchase_cost_usd(design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, econ)  # the data tables exist
-    margin_usd_per_t_tpa(econ)
-    check_numerics(drum_spec(mill_drum(s, design), s.materials, s.interactions, s.sim), s.sim, "mill")
-    record = {"bpr": scale.bpr, "region": scale.region, "shape_rule": scale.shape_rule, "yield_rule": model.rule,
-              "impact_threshold_j": model.impact_threshold_j, "bpr_line_yield_percent": line_y,
-              "yield_extrapolated": extrapolated}
+def pet_holdup_kg(design) -> float:
+    return design.pet_feed_kg_per_h * design.residence_time_min / 60
+
+
+def check_dem_mode(s: Scenario) -> None:
+    """The surrogate knows shaft and collision power, not the impact spectrum."""
+    if s.dem.mode == "surrogate" and s.yield_model.rule == "impact_threshold":
+        raise ConfigError("dem=surrogate: yield_model.rule=impact_threshold needs the impact spectrum, which the "
+                          "surrogate does not predict; use dem=full, or yield_model=specific_energy")
+
+
+def mechanics(s: Scenario, design, out_dir: Path | None = None) -> tuple[dict, dict]:
+    """The design's mill: its record (dem_*: power, its standard error, ...) and its dose rates
+    per kg of PET held up, from the DEM (dem=full) or the surrogate (dem=surrogate, marked)."""
+    drum, pet_kg = mill_drum(s, design), pet_holdup_kg(design)
+    if s.dem.mode == "full":
+        run, dem_dir = run_drum(s, drum, out_dir)
+        return drum_record(run, dem_dir) | {"dem_source": "full"}, run_dose(run, pet_kg, s)
+    p = predict_drum(load_surrogate(s.dem.table), drum, s.materials, s.interactions, s.dem.allow_extrapolation)
+    record = {f"dem_{k}": v for k, v in p.items()} | {"dem_source": "surrogate", "dem_table": s.dem.table}
+    nan = float("nan")
+    rates = {"impact_threshold_j": s.yield_model.impact_threshold_j,
+             "collision_power_w_per_kg": p["collision_power_w"] / pet_kg,
+             "collision_power_w_per_kg_se": p["collision_power_se_w"] / pet_kg}
+    rates |= {k: nan for k in MEASURES if k not in rates} | {f"{k}_se": nan for k in MEASURES if f"{k}_se" not in rates}
+    return record, rates
+
+
+@dataclass
+class YieldPlan:
+    """The yield model's part of a plan: the BPR line's yield and, under an energy rule, the dose
+    line (None until `ready` when the lab calibration runs first) and the target yield."""
+
+    line_yield_percent: float
+    extrapolated: bool
+    line: DoseLine | None
+    target: float | None
+    deferred: bool
+
+    def record(self, s: Scenario) -> dict:
+        if self.line is None:
+            return {}
+        out = self.line.as_record() | {"yield_mode": s.yield_model.mode,
+                                       "calibration_dir": str(calibration_folder(s))}
+        return out | ({"target_yield_percent": self.target,
+                       "target_dose_kj_per_kg_pet": self.line.dose_for(self.target) / 1e3}
+                      if self.target is not None else {})
+
+    def ready(self, s: Scenario) -> dict:
+        """Run the deferred lab calibration; the dose line's record it gives (else nothing new)."""
+        if not self.deferred:
+            return {}
+        simulate_kinetics_lab(s)
+        self.line, self.deferred = lab_dose_line(s), False
+        return self.record(s)
+
+
+def yield_plan(s: Scenario) -> YieldPlan:
+    """Refuses a BPR outside the line's range, and an energy rule whose lab calibration is
+    missing (unless yield_model.run_lab_calibration)."""
+    model = s.yield_model
+    line_y, extrapolated = bpr_line_yield(s.scaleup.bpr, model)
     energy = model.rule != "bpr_line"
     deferred = energy and model.run_lab_calibration and not calibrated(s)  # the lab DEM runs in execute
     line = lab_dose_line(s) if energy and not deferred else None  # refused until the lab is calibrated
     target = model.target_yield_percent or line_y if energy and model.mode == "target_yield" else None
+    return YieldPlan(line_y, extrapolated, line, target, deferred)
 
-    def line_record() -> dict:
-        out = line.as_record() | {"yield_mode": model.mode, "calibration_dir": str(calibration_folder(s))}
-        return out | ({"target_yield_percent": target, "target_dose_kj_per_kg_pet": line.dose_for(target) / 1e3}
-                      if target is not None else {})
 
-    if line is not None:
-        record |= line_record()
+def check_design(s: Scenario, design) -> None:
+    """The costs' data tables exist; the mill's numerics are sound."""
+    purchase_cost_usd(design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, s.economics)
+    margin_usd_per_t_tpa(s.economics)
+    check_numerics(drum_spec(mill_drum(s, design), s.materials, s.interactions, s.sim), s.sim, "mill")
 
-    def pet_holdup_kg(design) -> float:
-        return design.pet_feed_kg_per_h * design.residence_time_min / 60
 
-    def evaluate_mill(design, run: DrumRun) -> dict:
-        rates = run_dose(run, pet_holdup_kg(design), s)
-        minutes = design.residence_time_min
-        doses = {f"{m.removesuffix('_power_w_per_kg')}_dose_kj_per_kg_pet": dose_j_per_kg(rates[m], minutes) / 1e3
-                 for m in ("collision_power_w_per_kg", "impact_power_w_per_kg")}
-        y = line_y if line is None else line.yield_percent(dose_j_per_kg(rates[line.measure], minutes))
-        return {**design.as_record(), **with_basis(rates, "pet"), **doses,
-                **evaluate(run.summary["power_w"], y, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, minutes, econ),
-                "yield_capped": line is None and line_yield(scale.bpr, model) > 100.0,
-                "bond_rowland_power_w": bond_rowland_power_w(design.diameter_m, design.ball_mass_kg,
-                                                             scale.fill_fraction, design.fraction_of_critical,
-                                                             2 * design.ball_radius_m)}
+def plan_design(s: Scenario) -> Plan:
+    """Scale-up of the feed to a mill, whose DEM (or its surrogate) gives the power and the
+    collision dose; the yield model's yield (under an energy rule with a target, the residence
+    time that reaches it); costs and margin."""
+    scale, model = s.scaleup, s.yield_model
+    check_window(s.sim)
+    check_dem_mode(s)
+    y = yield_plan(s)
+    check_design(s, design_mill(scale))
+    record = {"bpr": scale.bpr, "region": scale.region, "shape_rule": scale.shape_rule, "yield_rule": model.rule,
+              "impact_threshold_j": model.impact_threshold_j, "bpr_line_yield_percent": y.line_yield_percent,
+              "yield_extrapolated": y.extrapolated} | y.record(s)
 
     def execute(out_dir: Path) -> dict:
-        nonlocal line
-        first = {}
-        if deferred:
-            simulate_kinetics_lab(s)
-            line = lab_dose_line(s)
-            first = line_record()
-        if target is None:
-            run, dem_dir = run_drum(s, mill_drum(s, design), out_dir)
-            return first | drum_record(run, dem_dir) | evaluate_mill(design, run)
-        mills = {}
-
-        def rate_at(tau_min: float) -> tuple[float, float]:
-            d = design_mill(replace(scale, residence_time_min=tau_min))
-            run, dem_dir = run_drum(s, mill_drum(s, d))
-            mills[tau_min] = d, dem_dir
-            rates = run_dose(run, pet_holdup_kg(d), s)
-            return rates[line.measure], rates[f"{line.measure}_se"]
-
-        fp = solve_residence_time(scale.residence_time_min, line.dose_for(target), rate_at, model.tolerance,
-                                  model.max_iterations)
-        final, _ = mills[fp.residence_time_min]
-        run, dem_dir = run_drum(s, mill_drum(s, final), out_dir)  # cached: the figures of the final mill
-        log.info("residence time %.4g min after %d DEM runs: %s", fp.residence_time_min, fp.iterations,
-                 ", ".join(f"{t:.4g}" for t in fp.history_min))
-        return first | drum_record(run, dem_dir) | evaluate_mill(final, run) | {
-            "residence_time_se_min": fp.se_min, "fixed_point_iterations": fp.iterations,
-            "fixed_point_dose_miss": fp.miss,
-            "fixed_point_history_min": " ".join(f"{t:.6g}" for t in fp.history_min)}
+        first = y.ready(s)
+        return first | evaluate_design(s, y.line, y.target, out_dir)[0]
 
     return Plan(record, execute)
+
+
+def evaluate_design(s: Scenario, line, target: float | None, out_dir: Path | None = None):
+    """The scale-up's mill (under a target, at the residence time that reaches it) by `mechanics`:
+    its record and its design."""
+    design = design_mill(s.scaleup)
+    if target is None:
+        dem, rates = mechanics(s, design, out_dir)
+        return dem | mill_record(s, design, dem, rates, line), design
+    fp, final = solve_design(s, design, line, target)
+    dem, rates = mechanics(s, final, out_dir)  # cached: the figures of the final mill
+    return dem | mill_record(s, final, dem, rates, line) | fp.as_record(), final
+
+
+def mill_record(s: Scenario, design, dem: dict, rates: dict, line) -> dict:
+    """A mill's design, dose rates and doses per kg of PET, yield (the BPR line's, or the dose
+    line's at its dose), costs and the Bond/Rowland power beside the DEM's."""
+    minutes, scale = design.residence_time_min, s.scaleup
+    doses = {f"{m.removesuffix('_power_w_per_kg')}_dose_kj_per_kg_pet": dose_j_per_kg(rates[m], minutes) / 1e3
+             for m in ("collision_power_w_per_kg", "impact_power_w_per_kg")}
+    y = (bpr_line_yield(scale.bpr, s.yield_model)[0] if line is None
+         else line.yield_percent(dose_j_per_kg(rates[line.measure], minutes)))
+    return {**design.as_record(), **with_basis(rates, "pet"), **doses,
+            **evaluate(dem["dem_power_w"], y, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, minutes,
+                       s.economics),
+            "yield_capped": line is None and line_yield(scale.bpr, s.yield_model) > 100.0,
+            "bond_rowland_power_w": bond_rowland_power_w(design.diameter_m, design.ball_mass_kg, scale.fill_fraction,
+                                                         design.fraction_of_critical, 2 * design.ball_radius_m)}
+
+
+def solve_design(s: Scenario, design, line, target: float):
+    """The residence time whose dose reaches the target yield's (a fixed point over the mills
+    the scale-up makes at each residence time, each given to `mechanics`); the final mill."""
+    mills = {}
+
+    def rate_at(tau_min: float) -> tuple[float, float]:
+        d = design_mill(replace(s.scaleup, residence_time_min=tau_min))
+        _, rates = mechanics(s, d)
+        mills[tau_min] = d
+        return rates[line.measure], rates[f"{line.measure}_se"]
+
+    fp = solve_residence_time(design.residence_time_min, line.dose_for(target), rate_at, s.yield_model.tolerance,
+                              s.yield_model.max_iterations)
+    log.info("residence time %.4g min after %d mill evaluations (%s): %s", fp.residence_time_min, fp.iterations,
+             s.dem.mode, ", ".join(f"{t:.4g}" for t in fp.history_min))
+    return fp, mills[fp.residence_time_min]
 
 
 def plan_lab(s: Scenario) -> Plan:
@@ -319,8 +394,91 @@ def plan_plant(s: Scenario) -> Plan:
                                     "recycle_purge_fraction": s.plant.recycle_purge_fraction}, execute)
 
 
+def plan_cheapest_mill(s: Scenario) -> Plan:
+    """The cheapest mill for the feed and target yield (surrogate/optimise.py): the paper's mill
+    (the scale-up as configured) and the optimum over speed, fill, ball size and L/D, both by the
+    surrogate; what each knob is worth (the optimum with that knob back at the paper's value);
+    then both mills confirmed by the DEM at the surrogate's residence time (optimiser.confirm),
+    with the surrogate's error on each."""
+    model = s.yield_model
+    if model.rule != "bpr_line" and model.mode == "fixed_time":
+        raise ConfigError("study=cheapest_mill: yield_model.mode=fixed_time gives no target to reach; "
+                          "use yield_model.mode=target_yield")
+    check_window(s.sim)
+    fast = replace(s, dem=replace(s.dem, mode="surrogate"))
+    check_dem_mode(fast)
+    load_surrogate(s.dem.table)  # refused here when missing
+    y = yield_plan(s)
+    ranges = knob_ranges(s.optimiser)
+    paper = design_mill(s.scaleup)
+    check_design(s, paper)
+    record = {"bpr": s.scaleup.bpr, "region": s.scaleup.region, "yield_rule": model.rule,
+              "bpr_line_yield_percent": y.line_yield_percent, "optimiser_trials": s.optimiser.trials,
+              "optimiser_seed": s.optimiser.seed} | y.record(s)
+
+    def at(scale, extrapolate: bool = False):
+        fit = replace(fast, scaleup=scale, dem=replace(fast.dem, allow_extrapolation=extrapolate))
+        rec, design = evaluate_design(fit, y.line, y.target)
+        return rec | {"fill_fraction": scale.fill_fraction,
+                      "annualised_cost_usd_per_yr": annualised_cost_usd_per_yr(rec, s.plant)}, design
+
+    def objective(knobs: dict[str, float]) -> tuple[float, float]:
+        try:
+            rec, _ = at(knob_scaleup(s.scaleup, knobs), extrapolate=True)
+        except (ConfigError, NotConverged):  # a mill that cannot be built or reach the target
+            return INFEASIBLE_USD, 1.0
+        return rec["annualised_cost_usd_per_yr"], 0.0 if rec["dem_inside_hull"] else 1.0
+
+    def confirm(design, label: str, out_dir: Path) -> dict:
+        """The DEM of a mill the surrogate chose, at the surrogate's protocol (its speed's revolutions)."""
+        full = replace(s, dem=replace(s.dem, mode="full"), sim=revolution_sim(s.sim, s.dem, design.speed_rpm))
+        folder = out_dir / label
+        folder.mkdir(exist_ok=True)
+        dem, rates = mechanics(full, design, folder)
+        rec = dem | mill_record(full, design, dem, rates, y.line)
+        return rec | {"annualised_cost_usd_per_yr": annualised_cost_usd_per_yr(rec, s.plant),
+                      "sim_duration_s": full.sim.duration_s}
+
+    def execute(out_dir: Path) -> dict:
+        out = y.ready(s)
+        base, base_design = at(s.scaleup, extrapolate=True)  # marked: paper_dem_inside_hull
+        best_knobs, _, trials = minimise(objective, ranges, s.optimiser.trials, s.optimiser.seed)
+        trials.to_csv(out_dir / "trials.csv", index=False)
+        best, best_design = at(knob_scaleup(s.scaleup, best_knobs))
+        out |= prefixed(base, "paper") | prefixed(best, "optimum") | {
+            "surrogate_design_s": trials.seconds.median(), "cost_saved_fraction":
+                1 - best["annualised_cost_usd_per_yr"] / base["annualised_cost_usd_per_yr"]}
+        paper_knobs = design_knobs(s.scaleup, base_design)
+        for knob in KNOBS:  # the optimum with one knob back at the paper's value
+            try:
+                cost = at(knob_scaleup(s.scaleup, best_knobs | {knob: paper_knobs[knob]}), True)[0][
+                    "annualised_cost_usd_per_yr"]
+            except (ConfigError, NotConverged):
+                cost = float("nan")
+            out[f"knob_{knob}_cost_increase_fraction"] = cost / best["annualised_cost_usd_per_yr"] - 1
+        if s.optimiser.confirm:
+            for label, design, surrogate in (("paper", base_design, base), ("optimum", best_design, best)):
+                started = time.perf_counter()
+                dem = confirm(design, label, out_dir)
+                out |= prefixed(dem, f"{label}_dem") | {
+                    f"{label}_dem_design_s": time.perf_counter() - started,
+                    f"{label}_surrogate_power_error": surrogate["dem_power_w"] / dem["dem_power_w"] - 1,
+                    f"{label}_surrogate_cost_error": (surrogate["annualised_cost_usd_per_yr"]
+                                                      / dem["annualised_cost_usd_per_yr"] - 1)}
+            out["cost_saved_fraction_dem"] = (1 - out["optimum_dem_annualised_cost_usd_per_yr"]
+                                              / out["paper_dem_annualised_cost_usd_per_yr"])
+        return out
+
+    return Plan(record, execute)
+
+
+def prefixed(record: dict, prefix: str) -> dict:
+    return {f"{prefix}_{k}": v for k, v in record.items()}
+
+
 STUDIES: dict[str, Callable[[Scenario], Plan]] = {"design": plan_design, "drum": plan_drum, "lab": plan_lab,
-                                                   "yield_calibration": plan_yield_calibration, "plant": plan_plant}
+                                                   "yield_calibration": plan_yield_calibration, "plant": plan_plant,
+                                                   "cheapest_mill": plan_cheapest_mill}
 
 
 def plan(s: Scenario) -> Plan:

@@ -112,6 +112,11 @@ class FixedPoint:
     se_min: float = 0.0  # from the standard error of its dose rate
     miss: float = 0.0  # its dose / the target - 1
 
+    def as_record(self) -> dict:
+        return {"residence_time_se_min": self.se_min, "fixed_point_iterations": self.iterations,
+                "fixed_point_dose_miss": self.miss,
+                "fixed_point_history_min": " ".join(f"{t:.6g}" for t in self.history_min)}
+
 
 def solve_residence_time(start_min: float, dose_target_j_per_kg: float, rate_at: Callable[[float], tuple[float, float]],
                          tolerance: float, max_iterations: int) -> FixedPoint:

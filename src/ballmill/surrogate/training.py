@@ -4,7 +4,7 @@ Training points: a scrambled Sobol sequence over the box of SurrogateConfig.boun
 points: a Latin hypercube (another seed) kept where it lies inside the training points' hull,
 the region the surrogate answers for.  Each point is a drum of 80 mm balls (D from D/d), run
 like any other (cached under <cache_dir>/dem/<key>: an interrupted training resumes with the
-finished runs), settled for sim.settle_s, then turned for startup + window revolutions; the
+finished runs), settled for sim.settle_s, then turned (revolution_sim); the
 power number and collision power number are averaged over the window with their standard
 errors.  The table carries the resolved settings and its source in columns and a JSON beside it.
 """
@@ -22,7 +22,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 from scipy.stats import qmc
 
-from ..config import ConfigError, SurrogateBounds, SurrogateConfig
+from ..config import ConfigError, DemConfig, SimConfig, SurrogateBounds, SurrogateConfig
 from ..dem import SimulationError
 from ..dose import dose_rates
 from ..drum import ball_count, dem_key, drum_speed_rpm, simulate_drum
@@ -61,18 +61,19 @@ def design(cfg: SurrogateConfig) -> pd.DataFrame:
     return pd.concat(frames, ignore_index=True).rename_axis("point").reset_index()
 
 
-def point_sim(s: Scenario, cfg: SurrogateConfig, speed_rpm: float):
-    """The sim settings of one point: the window in revolutions of its own speed."""
+def revolution_sim(sim: SimConfig, dem: DemConfig, speed_rpm: float) -> SimConfig:
+    """The surrogate's protocol: after settling, dem.startup_revolutions of turning, then the
+    averaging window of dem.window_revolutions (100 samples a revolution)."""
     turn = 60.0 / speed_rpm
-    return replace(s.sim, duration_s=(cfg.startup_revolutions + cfg.window_revolutions) * turn,
-                   steady_after_s=cfg.startup_revolutions * turn, sample_every_s=turn / 100)
+    return replace(sim, duration_s=(dem.startup_revolutions + dem.window_revolutions) * turn,
+                   steady_after_s=dem.startup_revolutions * turn, sample_every_s=turn / 100)
 
 
 def simulate_point(s: Scenario, cfg: SurrogateConfig, point: dict) -> dict:
     """One design point's DEM (cached) and its dimensionless outputs with standard errors."""
     drum, pairs = drum_at(point, cfg.ball_radius_m, s.mill, s.interactions)
     speed = drum_speed_rpm(drum)
-    sim = point_sim(s, cfg, speed)
+    sim = revolution_sim(s.sim, s.dem, speed)
     key = dem_key(drum, s.materials, pairs, sim)
     started = time.time()
     try:
@@ -95,8 +96,6 @@ def simulate_point(s: Scenario, cfg: SurrogateConfig, point: dict) -> dict:
         "impact_threshold_j": rates["impact_threshold_j"], "dem_key": key, "status": "ok",
         "wall_time_s": time.time() - started,
     }
-    log.info("point %d (%s): %d balls, power number %.4g +- %.2g, collision power number %.4g", point["point"],
-             point["split"], n, out["power_number"], out["power_number_se"], out["collision_power_number"])
     return out
 
 
@@ -106,11 +105,16 @@ def train_table(s: Scenario, cfg: SurrogateConfig) -> pd.DataFrame:
     sim = replace(s.sim, threads=1 if cfg.jobs > 1 else s.sim.threads)
     log.info("surrogate training: %d runs (%d held out), %d at a time", len(points),
              sum(p["split"] == "holdout" for p in points), cfg.jobs)
-    rows = Parallel(n_jobs=cfg.jobs)(delayed(simulate_point)(replace(s, sim=sim), cfg, p) for p in points)
+    rows = []
+    for row in Parallel(n_jobs=cfg.jobs, return_as="generator_unordered")(
+            delayed(simulate_point)(replace(s, sim=sim), cfg, p) for p in points):
+        rows.append(row)
+        log.info("surrogate training: %d of %d runs done (point %d: %s, %.0f s)", len(rows), len(points),
+                 row["point"], row["status"], row.get("wall_time_s", 0.0))
     table = pd.DataFrame(rows).sort_values("point")
     return table.assign(source=SOURCE, year=time.gmtime().tm_year, url="", ball_radius_m=cfg.ball_radius_m,
-                        settle_s=s.sim.settle_s, startup_revolutions=cfg.startup_revolutions,
-                        window_revolutions=cfg.window_revolutions, shear_modulus_scale=s.sim.shear_modulus_scale)
+                        settle_s=s.sim.settle_s, startup_revolutions=s.dem.startup_revolutions,
+                        window_revolutions=s.dem.window_revolutions, shear_modulus_scale=s.sim.shear_modulus_scale)
 
 
 def write_table(table: pd.DataFrame, s: Scenario, cfg: SurrogateConfig, out_dir: Path) -> Path:
@@ -119,7 +123,7 @@ def write_table(table: pd.DataFrame, s: Scenario, cfg: SurrogateConfig, out_dir:
     path = out_dir / "surrogate_training.csv"
     write_atomic(path, lambda tmp: table.to_csv(tmp, index=False))
     write_json(out_dir / "surrogate_training.json", {
-        "command": "ballmill surrogate", "options": asdict(cfg), "sim": asdict(s.sim),
+        "command": "ballmill surrogate", "options": asdict(cfg), "sim": asdict(s.sim), "dem": asdict(s.dem),
         "materials": {k: asdict(v) for k, v in s.materials.items()},
         "interactions": {k: asdict(v) for k, v in s.interactions.items()}, "mill": asdict(s.mill),
         "source": SOURCE})

@@ -1,0 +1,113 @@
+"""The DEM surrogate: scaling carried by the dimensionless form, the fit and its honesty about
+error (on the shipped DEM training table), refusal outside the training hull, and the optimiser."""
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from ballmill.config import ConfigError, DrumConfig, InteractionConfig, MaterialConfig, SurrogateConfig
+from ballmill.surrogate.model import Surrogate, error_table, predict_drum
+from ballmill.surrogate.optimise import minimise
+from ballmill.surrogate.space import INPUTS, OUTPUTS, groups
+from ballmill.surrogate.training import design
+
+MATERIALS = {"steel": MaterialConfig(density_kg_per_m3=7800.0)}
+PAIRS = {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}
+
+
+def synthetic_table(noise: float = 0.02, seed: int = 0) -> pd.DataFrame:
+    """The training design with smooth known outputs, each with a relative standard error `noise`."""
+    table = design(SurrogateConfig())
+    rng = np.random.default_rng(seed)
+    phi, fill = table.fraction_of_critical, table.fill_fraction
+    truth = {"power_number": 0.8 * phi * (1 - 0.9 * fill) * table.friction**0.1,
+             "collision_power_number": 0.5 * phi**1.5 * (1.2 - table.restitution) * (1 + 0.01 * table.diameter_to_ball)}
+    for name, value in truth.items():
+        table[name] = value * (1 + noise * rng.standard_normal(len(table)))
+        table[f"{name}_se"] = noise * value
+    return table.assign(status="ok")
+
+
+@pytest.fixture(scope="module")
+def synthetic():
+    table = synthetic_table()
+    return table, Surrogate.fit(table[table.split == "train"])
+
+
+def test_geometrically_similar_mills_scale_as_d_to_the_2_5_times_length(synthetic):
+    _, model = synthetic
+    small = DrumConfig(inner_diameter_m=1.6, inner_length_m=2.4, ball_radius_m=0.08, fill_fraction=0.3,
+                       fraction_of_critical=0.5)
+    big = replace(small, inner_diameter_m=3.2, inner_length_m=4.8, ball_radius_m=0.16)
+    assert groups(small, PAIRS) == pytest.approx(groups(big, PAIRS))
+    p_small, p_big = (predict_drum(model, d, MATERIALS, PAIRS)["power_w"] for d in (small, big))
+    assert p_big / p_small == pytest.approx(2**2.5 * 2, rel=0.02)  # ball count rounds
+
+
+def test_a_smooth_response_is_learnt_within_its_noise(synthetic):
+    table, _ = synthetic
+    runs, summary = error_table(table, folds=4)
+    held = summary[summary.set == "held out"].set_index("output")
+    assert (held.median_error < 0.03).all(), held
+    fit = summary[summary.set == "training fit"].set_index("output")
+    assert (fit.within_2_se > 0.9).all(), fit
+
+
+def test_outside_the_training_box_is_refused_naming_the_input(synthetic):
+    table, model = synthetic
+    x = np.array(table.loc[table.split == "train", list(INPUTS)].median())
+    x[INPUTS.index("fill_fraction")] = 0.6
+    with pytest.raises(ConfigError, match=r"fill_fraction=0\.6 is outside the training runs' range"):
+        model.predict(x)
+    assert np.isfinite(model.predict(x, extrapolate=True).to_numpy()).all()
+
+
+def test_a_corner_of_the_box_outside_the_hull_is_refused(synthetic):
+    table, model = synthetic
+    train = table[table.split == "train"][list(INPUTS)].to_numpy()
+    corner = train.max(axis=0)  # each input at its largest training value: inside the box, outside the hull
+    with pytest.raises(ConfigError, match="outside the hull of the training runs"):
+        model.predict(corner)
+
+
+def test_held_out_points_lie_inside_the_training_hull(synthetic):
+    table, model = synthetic
+    held = table[table.split == "holdout"]
+    assert len(held) == SurrogateConfig().holdout
+    assert model.inside(held[list(INPUTS)].to_numpy()).all()
+
+
+def bowl(knobs):
+    """A cost with a known minimum at x = 0.3, y = 0.7, infeasible where x + y > 1.2."""
+    value = (knobs["x"] - 0.3) ** 2 + 2 * (knobs["y"] - 0.7) ** 2 + 1.0
+    return value, knobs["x"] + knobs["y"] - 1.2
+
+
+def test_the_optimiser_finds_a_known_minimum_and_respects_the_constraint():
+    best, value, trials = minimise(bowl, {"x": (0.0, 1.0), "y": (0.0, 1.0)}, trials=200, seed=3)
+    assert best["x"] == pytest.approx(0.3, abs=0.05)
+    assert best["y"] == pytest.approx(0.7, abs=0.05)
+    assert value == pytest.approx(1.0, abs=0.005)
+    assert best["x"] + best["y"] <= 1.2
+
+
+def test_the_same_seed_gives_the_same_optimum():
+    first = minimise(bowl, {"x": (0.0, 1.0), "y": (0.0, 1.0)}, trials=40, seed=7)
+    again = minimise(bowl, {"x": (0.0, 1.0), "y": (0.0, 1.0)}, trials=40, seed=7)
+    assert first[0] == again[0] and first[1] == again[1]
+
+
+def test_no_feasible_trial_is_a_clear_error():
+    with pytest.raises(ConfigError, match="none of 20 trials was feasible"):
+        minimise(lambda k: (1.0, 1.0), {"x": (0.0, 1.0)}, trials=20, seed=0)
+
+
+def test_power_number_definition():
+    """P / (M g omega D/2): a 1 t charge in a 2 m mill at 30 rpm drawing 10 kW."""
+    from ballmill.surrogate.space import power_scale_w
+
+    assert 1e4 / power_scale_w(1000.0, 2.0, 30.0) == pytest.approx(1e4 / (1000 * 9.81 * math.pi * 1.0))
+    assert set(OUTPUTS) == {"power_number", "collision_power_number"}
