@@ -49,7 +49,7 @@ def test_geometrically_similar_mills_scale_as_d_to_the_2_5_times_length(syntheti
 
 def test_a_smooth_response_is_learnt_within_its_noise(synthetic):
     table, _ = synthetic
-    runs, summary = error_table(table, folds=4)
+    _, summary = error_table(table, folds=4)
     held = summary[summary.set == "held out"].set_index("output")
     assert (held.median_error < 0.03).all(), held
     fit = summary[summary.set == "training fit"].set_index("output")
@@ -87,7 +87,7 @@ def bowl(knobs):
 
 
 def test_the_optimiser_finds_a_known_minimum_and_respects_the_constraint():
-    best, value, trials = minimise(bowl, {"x": (0.0, 1.0), "y": (0.0, 1.0)}, trials=200, seed=3)
+    best, value, _ = minimise(bowl, {"x": (0.0, 1.0), "y": (0.0, 1.0)}, trials=200, seed=3)
     assert best["x"] == pytest.approx(0.3, abs=0.05)
     assert best["y"] == pytest.approx(0.7, abs=0.05)
     assert value == pytest.approx(1.0, abs=0.005)

@@ -45,6 +45,7 @@ BED_SNAPSHOTS = 4  # particle states recorded at this many instants of the avera
 # 1.05 r from the walls (5 % clearance): a loose bed that settles in a fraction of a second.
 LATTICE_SPACING = 2.04
 WALL_CLEARANCE = 1.05
+FCC_BASIS = np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]])
 
 
 @dataclass
@@ -70,15 +71,26 @@ def ball_count(drum: DrumConfig) -> int:
     return max(1, round(drum.fill_fraction * volume * (1 - drum.bed_porosity) / ball))
 
 
-def lattice_packing(drum: DrumConfig, n: int, seed: int) -> np.ndarray:
-    """n ball centres on a loose cubic lattice, lowest sites first, slightly jittered (m)."""
+def lattice_sites(drum: DrumConfig, cell_m: float, basis: np.ndarray) -> np.ndarray:
+    """Sites of a lattice (cubic cells of cell_m, `basis` points per cell in cell units) inside the
+    drum with the wall clearance."""
     r, big_r, half = drum.ball_radius_m, drum.inner_diameter_m / 2, drum.inner_length_m / 2
-    step, gap = LATTICE_SPACING * r, WALL_CLEARANCE * r
-    xs = np.arange(-big_r + gap, big_r - r, step)
-    ys = np.arange(-half + gap, half - r, step)
-    grid = np.array(np.meshgrid(xs, ys, xs, indexing="ij")).reshape(3, -1).T
-    inside = np.hypot(grid[:, 0], grid[:, 2]) <= big_r - gap
-    sites = grid[inside]
+    gap = WALL_CLEARANCE * r
+    xs = np.arange(-big_r + gap, big_r - r, cell_m)
+    ys = np.arange(-half + gap, half - r, cell_m)
+    corners = np.array(np.meshgrid(xs, ys, xs, indexing="ij")).reshape(3, -1).T
+    grid = (corners[:, None, :] + cell_m * basis[None, :, :]).reshape(-1, 3)
+    inside = (np.hypot(grid[:, 0], grid[:, 2]) <= big_r - gap) & (np.abs(grid[:, 1]) < half - r)
+    return grid[inside]
+
+
+def lattice_packing(drum: DrumConfig, n: int, seed: int) -> np.ndarray:
+    """n ball centres on a loose cubic lattice (a face-centred one, 1.4x denser, when the cubic
+    one has too few sites: small drums at high fill), lowest sites first, slightly jittered (m)."""
+    r = drum.ball_radius_m
+    sites = lattice_sites(drum, LATTICE_SPACING * r, np.zeros((1, 3)))
+    if len(sites) < n:
+        sites = lattice_sites(drum, LATTICE_SPACING * r * math.sqrt(2), FCC_BASIS)
     if len(sites) < n:
         raise ConfigError(
             f"mill: {n} balls of radius {r} m do not fit loosely in the drum ({len(sites)} sites); "

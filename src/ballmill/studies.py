@@ -162,11 +162,17 @@ def pet_holdup_kg(design) -> float:
     return design.pet_feed_kg_per_h * design.residence_time_min / 60
 
 
-def check_dem_mode(s: Scenario) -> None:
-    """The surrogate knows shaft and collision power, not the impact spectrum."""
-    if s.dem.mode == "surrogate" and s.yield_model.rule == "impact_threshold":
+def check_dem_mode(s: Scenario, design=None) -> None:
+    """The surrogate knows shaft and collision power, not the impact spectrum; its table exists
+    and (unless extrapolation is allowed) the design's mill lies inside its training runs."""
+    if s.dem.mode != "surrogate":
+        return
+    if s.yield_model.rule == "impact_threshold":
         raise ConfigError("dem=surrogate: yield_model.rule=impact_threshold needs the impact spectrum, which the "
                           "surrogate does not predict; use dem=full, or yield_model=specific_energy")
+    model = load_surrogate(s.dem.table)
+    if design is not None:
+        predict_drum(model, mill_drum(s, design), s.materials, s.interactions, s.dem.allow_extrapolation)
 
 
 def mechanics(s: Scenario, design, out_dir: Path | None = None) -> tuple[dict, dict]:
@@ -240,9 +246,10 @@ def plan_design(s: Scenario) -> Plan:
     time that reaches it); costs and margin."""
     scale, model = s.scaleup, s.yield_model
     check_window(s.sim)
-    check_dem_mode(s)
+    design = design_mill(scale)
+    check_dem_mode(s, design)
     y = yield_plan(s)
-    check_design(s, design_mill(scale))
+    check_design(s, design)
     record = {"bpr": scale.bpr, "region": scale.region, "shape_rule": scale.shape_rule, "yield_rule": model.rule,
               "impact_threshold_j": model.impact_threshold_j, "bpr_line_yield_percent": y.line_yield_percent,
               "yield_extrapolated": y.extrapolated} | y.record(s)
@@ -407,7 +414,6 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
     check_window(s.sim)
     fast = replace(s, dem=replace(s.dem, mode="surrogate"))
     check_dem_mode(fast)
-    load_surrogate(s.dem.table)  # refused here when missing
     y = yield_plan(s)
     ranges = knob_ranges(s.optimiser)
     paper = design_mill(s.scaleup)
