@@ -84,3 +84,11 @@ def test_holdup_scaling_prices_a_longer_residence_time_as_a_larger_capacity():
     assert purchase_cost_usd(1000.0, 400.0, holdup, 80.0) == pytest.approx(
         purchase_cost_usd(4000.0, 400.0, ECON))
     assert purchase_cost_usd(1000.0, 400.0, ECON, 80.0) == purchase_cost_usd(1000.0, 400.0, ECON)
+
+
+def test_a_mill_without_a_set_speed_runs_at_its_fraction_of_critical():
+    d = design_mill(replace(ScaleupConfig(), speed_rpm=None, fraction_of_critical=0.6))
+    assert d.speed_rpm == pytest.approx(0.6 * 42.3 / (d.diameter_m - 0.16) ** 0.5)
+    assert d.fraction_of_critical == pytest.approx(0.6)
+    with pytest.raises(ConfigError, match="shape_rule=fraction_of_critical sizes the diameter from scaleup.speed_rpm"):
+        design_mill(replace(ScaleupConfig(), speed_rpm=None, shape_rule="fraction_of_critical"))

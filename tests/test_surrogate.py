@@ -111,3 +111,65 @@ def test_power_number_definition():
 
     assert 1e4 / power_scale_w(1000.0, 2.0, 30.0) == pytest.approx(1e4 / (1000 * 9.81 * math.pi * 1.0))
     assert set(OUTPUTS) == {"power_number", "collision_power_number"}
+
+
+# On the shipped training table (DEM runs): the bounds below are set from the measured errors
+# (README, "A surrogate of the DEM"), with room for the GP's fit to move between library versions.
+HELD_OUT_MEDIAN, HELD_OUT_P90 = {"power_number": 0.05, "collision_power_number": 0.08}, \
+    {"power_number": 0.12, "collision_power_number": 0.2}
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    from ballmill.surrogate.model import table_path
+
+    table = pd.read_csv(table_path("surrogate_training.csv"))
+    return table, error_table(table, folds=5)
+
+
+def test_the_shipped_table_records_where_it_came_from(shipped):
+    table, _ = shipped
+    assert {"source", "year", "dem_key", "shear_modulus_scale", "split"} <= set(table.columns)
+    assert (table.status == "ok").mean() > 0.9
+    assert table.source.str.contains("ballmill surrogate").all()
+
+
+def test_the_surrogate_reproduces_its_training_runs_within_their_standard_error(shipped):
+    _, (_, summary) = shipped
+    fit = summary[summary.set == "training fit"].set_index("output")
+    print(fit.to_string())
+    assert (fit.within_2_se >= 0.9).all(), fit
+
+
+def test_the_held_out_error_is_within_the_measured_bound(shipped):
+    _, (_, summary) = shipped
+    held = summary[summary.set == "held out"].set_index("output")
+    print(summary.to_string())
+    for name in OUTPUTS:
+        assert held.at[name, "median_error"] < HELD_OUT_MEDIAN[name], held
+        assert held.at[name, "p90_error"] < HELD_OUT_P90[name], held
+
+
+def run_plan(tmp_path, overrides):
+    from ballmill.scenario import compose, load
+    from ballmill.studies import plan
+
+    p = plan(load(compose("config", [f"cache_dir={tmp_path / 'cache'}", *overrides])))
+    return p.record | p.execute(tmp_path)
+
+
+def test_a_design_by_the_surrogate_is_marked_and_carries_its_uncertainty(tmp_path):
+    rec = run_plan(tmp_path, ["dem=surrogate"])
+    assert rec["dem_source"] == "surrogate" and rec["dem_inside_hull"]
+    assert 0 < rec["dem_power_se_w"] < 0.2 * rec["dem_power_w"]
+    assert rec["yield_percent"] == pytest.approx(6.38 * 19 - 46.35)
+
+
+def test_the_cheapest_mill_is_no_dearer_than_the_papers_and_knobs_are_ranked(tmp_path):
+    rec = run_plan(tmp_path, ["study=cheapest_mill", "optimiser.trials=30", "optimiser.confirm=false",
+                              "economics.capacity_scaling=holdup"])
+    assert rec["optimum_annualised_cost_usd_per_yr"] <= rec["paper_annualised_cost_usd_per_yr"]
+    assert rec["optimum_dem_inside_hull"]
+    assert all(np.isfinite(rec[f"knob_{k}_cost_increase_fraction"]) for k in
+               ("fraction_of_critical", "fill_fraction", "ball_radius_m", "length_to_diameter"))
+    assert (tmp_path / "trials.csv").is_file()
