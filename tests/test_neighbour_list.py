@@ -52,3 +52,12 @@ def test_serial_and_parallel_launches_and_thread_counts_give_identical_bits(refe
         other = simulate(threads=threads, launches=4, serial=serial)  # serial: 2,500 steps per launch
         for key in ("x", "v", "w"):
             assert np.array_equal(other[key], reference[key]), (threads, serial, key)
+
+
+def test_the_gpu_binning_path_gives_the_cpu_paths_contacts_and_bits(reference):
+    """Parallel binning with a per-cell sort (what CUDA runs), here on the CPU backend."""
+    gpu_path = simulate(serial=False, parallel_binning=True)
+    assert gpu_path["contact_pairs"] == reference["contact_pairs"]
+    assert gpu_path["rebuilds"] == reference["rebuilds"]
+    for key in ("x", "v", "w"):
+        assert np.array_equal(gpu_path[key], reference[key]), key

@@ -70,6 +70,8 @@ class EngineOptions:
     grid: None picks a cell grid when some replica has more than GRID_MIN_PARTICLES.
     serial: None runs whole steps in one launch for replica batches, for systems of up to
     SERIAL_MAX_PARTICLES and on one CPU thread.
+    parallel_binning: None bins particles into cells serially on a CPU (faster than launching
+    threads) and in parallel, then sorts each cell, on a GPU; True/False forces one path.
     """
 
     dt_s: float
@@ -81,6 +83,7 @@ class EngineOptions:
     serial: bool | None = None
     collision_log: bool = True  # False compiles the collision log out (dense beds make millions)
     progress_every_s: float = 30.0
+    parallel_binning: bool | None = None  # None: serial on a CPU, parallel binning + per-cell sort elsewhere
 
 
 @ti.data_oriented
@@ -99,7 +102,7 @@ class Engine:
         self.tables = PairTables(spec)
         self.mo = Motions(spec, self.n_rep)
         self.nl = NeighbourList(spec, self.p, self.monitor, k, options.skin_fraction * float(spec.radius_m.max()),
-                                self.use_grid)
+                                self.use_grid, options.parallel_binning)
         self.book = EnergyBook(self.p)
         self.pairs = PairContacts(self.p, self.tables, self.nl, self.monitor, self.book, options.collision_log)
         self.walls = Walls(spec, self.p, self.tables, self.mo, self.monitor, self.book, k, options.collision_log)

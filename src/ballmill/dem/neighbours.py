@@ -27,12 +27,14 @@ from .monitor import CELL, NEIGHBOURS
 class NeighbourList:
     """Candidate pairs and their per-pair history and force slots (capacity per particle)."""
 
-    def __init__(self, spec, particles, monitor, capacity: int, skin_m: float, use_grid: bool):
+    def __init__(self, spec, particles, monitor, capacity: int, skin_m: float, use_grid: bool,
+                 parallel_binning: bool | None = None):
         n, reps = spec.n_particles, spec.n_replicas
         self.p, self.monitor = particles, monitor
         self.n, self.n_rep, self.k_max, self.skin, self.use_grid = n, reps, capacity, skin_m, use_grid
         # on a CPU one thread bins faster than launching threads; a GPU bins in parallel, then sorts
-        self.serial_binning = ti.lang.impl.current_cfg().arch == ti.cpu
+        on_cpu = ti.lang.impl.current_cfg().arch == ti.cpu
+        self.serial_binning = on_cpu if parallel_binning is None else not parallel_binning
         k = capacity
         self.nb_n = ti.field(ti.i32, n)
         self.nb_j = ti.field(ti.i32, (n, k))
