@@ -5,8 +5,8 @@ volume at bed porosity 0.4 (~8,600 balls), 70 % of critical speed, E = 2e8 Pa, v
 rho 7900, e 0.5, mu 0.5, mu_r 0.01, dt 20 % of Rayleigh; settle, then rotate.
 Other sizes scale D and L by (N / 8600)^(1/3).  `bpr19` is the paper's mill at BPR 19 instead:
 D 1.743 m, L 2.614 m, 523 balls of 160 mm, 15 rpm, physical steel (G 77 GPa), dt 1.74e-5 s.
-Figures are printed as a table and written as JSON (`json=PATH`); `peer=liggghts` runs the same
-drums in LIGGGHTS (1 and 2 MPI ranks) right after ours and adds the ratios.
+Figures are printed as a table and written as JSON (`json=PATH`); `peer=liggghts`, `lammps` or
+`both` runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
 
 `lab=true`: the MM400 batch instead, a 10 x 10 grid of ball-wall restitution x friction, one
 17.6 mm ball per jar at 25 Hz, 2 s each, all replicas in one launch.
@@ -24,7 +24,7 @@ from .config import BenchConfig, ConfigError, DrumConfig, InteractionConfig, Mat
 from .dem import Engine, init_taichi
 from .drum import ball_count, drum_spec
 from .files import write_json
-from .peer import liggghts_rates, require_liggghts
+from .peer import PEERS, peer_rates, require_peers
 from .scenario import engine_options, time_step_s
 
 REFERENCE = DrumConfig(inner_diameter_m=0.4, inner_length_m=0.2, ball_radius_m=0.005)
@@ -60,9 +60,9 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
     power, se = res.mean_power_w("drum", after_s=settle_s + 0.3 * rotate_s)
     rate = spec.n_particles * steps / wall
     peers = {}
-    if peer == "liggghts":
-        peers = liggghts_rates(spec, drum, material, PAIRS["steel-steel"], engine.dt, settle_s, rotate_s,
-                               engine.nl.skin)
+    if peer:
+        peers = peer_rates(peer_names(peer), spec, drum, material, PAIRS["steel-steel"], engine.dt, settle_s,
+                           rotate_s, engine.nl.skin)
         peers |= {f"ratio_to_{k}": rate / v for k, v in list(peers.items())}
     return {
         "case": case, "balls": spec.n_particles, "arch": arch, "threads": threads or "all", "precision": precision,
@@ -72,6 +72,11 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
         "power_w": power, "power_se_w": se, **{f"share_{k.replace(' ', '_')}": v / total for k, v in phases.items()},
         **peers,
     }
+
+
+def peer_names(peer: str | None) -> tuple[str, ...]:
+    """bench's peer option: one peer, or both."""
+    return () if peer is None else tuple(PEERS) if peer == "both" else (peer,)
 
 
 def bench_lab(threads: int, duration_s: float) -> dict:
@@ -92,8 +97,7 @@ def main(opts: BenchConfig) -> None:
     for case in opts.cases:
         if case != "bpr19" and not (case.isdigit() and int(case) >= 2):
             raise ConfigError(f"cases: {case!r} is neither a ball count (an integer >= 2) nor bpr19")
-    if opts.peer == "liggghts":
-        require_liggghts()  # before our own runs, not after
+    require_peers(peer_names(opts.peer))  # before our own runs, not after
     if opts.lab:
         rows = [bench_lab(opts.threads, opts.lab_duration_s)]
     else:

@@ -471,8 +471,8 @@ class BenchConfig:
     profile_steps: int = rng(50, 1, None)
     lab: bool = field(default=False, metadata={"doc": "the MM400 10 x 10 grid instead of the drum"})
     lab_duration_s: float = rng(2.0, 0.0, None, lo_open=True, doc="simulated time per MM400 replica (s)")
-    peer: str | None = field(default=None, metadata={"choices": (None, "liggghts"),
-                                                     "doc": "run the same drums in LIGGGHTS (1 and 2 MPI ranks)"})
+    peer: str | None = field(default=None, metadata={"choices": (None, "liggghts", "lammps", "both"), "doc":
+                                                     "run the same drums in LIGGGHTS, LAMMPS or both (1 and 2 ranks)"})
     json: str = field(default="outputs/bench/bench.json", metadata={"doc": "where the figures are written"})
 
 
