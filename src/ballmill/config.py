@@ -392,8 +392,7 @@ class CalibrationConfig:
 
     def __post_init__(self):
         for name, values in (("restitution_range", self.restitution_range), ("friction_range", self.friction_range)):
-            if len(values) != 2 or not values[0] < values[1]:
-                raise ConfigError(f"{name}={values}: give [low, high] with low < high")
+            check_interval(name, values)
         for name, values, lo_open, hi in (("restitutions", self.restitutions, True, 1.0),
                                           ("frictions", self.frictions, False, None),
                                           ("restitution_range", self.restitution_range, True, 1.0),
