@@ -268,7 +268,9 @@ def evaluate_design(s: Scenario, line, target: float | None, out_dir: Path | Non
     if target is None:
         dem, rates = mechanics(s, design, out_dir)
         return dem | mill_record(s, design, dem, rates, line), design
-    fp, final = solve_design(s, design, line, target)
+    # the surrogate may pass outside its hull on the way; the final mill is checked (mechanics)
+    trial = replace(s, dem=replace(s.dem, allow_extrapolation=True)) if s.dem.mode == "surrogate" else s
+    fp, final = solve_design(trial, design, line, target)
     dem, rates = mechanics(s, final, out_dir)  # cached: the figures of the final mill
     return dem | mill_record(s, final, dem, rates, line) | fp.as_record(), final
 
@@ -450,7 +452,7 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
         base, base_design = at(s.scaleup, extrapolate=True)  # marked: paper_dem_inside_hull
         best_knobs, _, trials = minimise(objective, ranges, s.optimiser.trials, s.optimiser.seed)
         trials.to_csv(out_dir / "trials.csv", index=False)
-        best, best_design = at(knob_scaleup(s.scaleup, best_knobs))
+        best, best_design = at(knob_scaleup(s.scaleup, best_knobs), extrapolate=True)  # inside: the constraint
         out |= prefixed(base, "paper") | prefixed(best, "optimum") | {
             "surrogate_design_s": trials.seconds.median(), "cost_saved_fraction":
                 1 - best["annualised_cost_usd_per_yr"] / base["annualised_cost_usd_per_yr"]}
