@@ -174,3 +174,12 @@ def test_the_cheapest_mill_is_no_dearer_than_the_papers_and_knobs_are_ranked(tmp
     assert all(np.isfinite(rec[f"knob_{k}_cost_increase_fraction"]) for k in
                ("fraction_of_critical", "fill_fraction", "ball_radius_m", "length_to_diameter"))
     assert (tmp_path / "trials.csv").is_file()
+
+
+def test_a_counted_charge_has_the_fill_of_its_ball_count():
+    """A scale-up mill gives its balls as a count: its fill, not the mill group's default, is the input."""
+    from ballmill.drum import ball_count
+
+    drum = DrumConfig(inner_diameter_m=1.4, inner_length_m=2.8, ball_radius_m=0.0645, fill_fraction=0.43)
+    counted = replace(drum, ball_count=ball_count(drum), fill_fraction=0.3)
+    assert groups(counted, PAIRS)["fill_fraction"] == pytest.approx(0.43, rel=2e-3)

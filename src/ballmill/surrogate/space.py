@@ -41,10 +41,20 @@ def groups(drum: DrumConfig, interactions: dict[str, InteractionConfig]) -> dict
     d = 2 * drum.ball_radius_m
     phi = (drum.fraction_of_critical if drum.speed_rpm is None
            else drum.speed_rpm / critical_speed_rpm(drum.inner_diameter_m, d))
-    return {"fraction_of_critical": phi, "fill_fraction": drum.fill_fraction,
+    return {"fraction_of_critical": phi, "fill_fraction": bed_fill(drum),
             "length_to_diameter": drum.inner_length_m / drum.inner_diameter_m,
             "diameter_to_ball": drum.inner_diameter_m / d, "restitution": pairs[0].restitution,
             "friction": pairs[0].static_friction}
+
+
+def bed_fill(drum: DrumConfig) -> float:
+    """The ball bed's share of the drum volume: the configured fill, or that of its ball count
+    (at the bed porosity) when the count is given (as the scale-up gives it)."""
+    if drum.ball_count is None:
+        return drum.fill_fraction
+    ball = 4 / 3 * math.pi * drum.ball_radius_m**3
+    return drum.ball_count * ball / (1 - drum.bed_porosity) / (math.pi / 4 * drum.inner_diameter_m**2
+                                                                * drum.inner_length_m)
 
 
 def drum_at(point: dict[str, float], ball_radius_m: float, base: DrumConfig,
