@@ -64,6 +64,9 @@ class SimConfig:
     duration_s: float = rng(1.0, 0.0, None, lo_open=True, doc="time simulated after settling (s)")
     sample_every_s: float = rng(0.01, 0.0, None, lo_open=True)
     steady_after_s: float = rng(0.5, 0.0, None, doc="power is averaged over samples later than this after start (s)")
+    power_se_target: float | None = rng(None, 0.0, 1.0, lo_open=True, doc=(
+        "drum: stop once the mean power's standard error is below this fraction of it (after at least one "
+        "revolution of averaging; null: always the whole duration)"))
     trajectory_every: int = rng(0, 0, None, doc="record particle states every n samples (0: never)")
     vtk_every: int = rng(0, 0, None, doc="write ParaView files (particles, walls) every n samples (0: never)")
     max_contacts_per_particle: int = rng(16, 1, None, doc="neighbour-list and wall-contact slots per particle")

@@ -31,6 +31,7 @@ from .dem import (
     init_taichi,
     memory_estimate_bytes,
 )
+from .dem.results import batch_mean
 from .dem.vtk import VtkWriter
 from .files import exclusive, read_json, write_json
 from .impacts import impact_statistics
@@ -46,6 +47,34 @@ BED_SNAPSHOTS = 4  # particle states recorded at this many instants of the avera
 LATTICE_SPACING = 2.04
 WALL_CLEARANCE = 1.05
 FCC_BASIS = np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]])
+
+
+class PowerWindow:
+    """Ends a drum run once the mean power's standard error (10 batch means) is below `target`
+    of the mean, after at least `min_window_s` of averaging; `reason` says why the run ended."""
+
+    CHECK_EVERY = 10  # samples between two looks at the power
+
+    def __init__(self, recorder: Recorder, body: str, after_s: float, min_window_s: float, target: float):
+        self.recorder, self.body, self.after, self.min_window, self.target = (recorder, body, after_s, min_window_s,
+                                                                              target)
+        self.reason = "the configured duration (sim.duration_s)"
+        self.calls = 0
+
+    def __call__(self) -> bool:
+        self.calls += 1
+        if self.calls % self.CHECK_EVERY:
+            return False
+        t, p = self.recorder.power_so_far(self.body)
+        window = p[t > self.after]
+        if not len(window) or t[-1] - self.after < self.min_window:
+            return False
+        mean, se = batch_mean(window)
+        if se < self.target * abs(mean):
+            self.reason = (f"standard error {se / abs(mean):.2%} of the mean power below sim.power_se_target "
+                           f"{self.target:.2%} after {t[-1] - self.after:.3g} s of averaging")
+            return True
+        return False
 
 
 @dataclass
@@ -189,8 +218,10 @@ def check_memory(n_balls: int, sim: SimConfig) -> None:
 def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
     """Hash of everything that determines a drum DEM result (prices and feeds do not, nor the
     thread count, the neighbour skin, the launch mode, checkpoints or progress: results are
-    identical bits whatever they are)."""
-    numerics = {k: v for k, v in asdict(sim).items() if k not in UNKEYED_SIM_FIELDS}
+    identical bits whatever they are; an unset power_se_target is left out, so runs keep the
+    keys they had before it existed)."""
+    numerics = {k: v for k, v in asdict(sim).items()
+                if k not in UNKEYED_SIM_FIELDS and not (k == "power_se_target" and v is None)}
     payload = {
         "drum": asdict(drum), "materials": {k: asdict(v) for k, v in materials.items()},
         "interactions": {k: asdict(v) for k, v in interactions.items()}, "sim": numerics,
@@ -233,8 +264,10 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
     end = sim.settle_s + sim.duration_s
     sinks = (ParquetSink(out_dir), *((VtkWriter(out_dir, sim.vtk_every),) if sim.vtk_every else ()))
     recorder = Recorder(engine, sim.trajectory_every, np.linspace(after, end, BED_SNAPSHOTS + 1)[1:], sinks)
+    turn = 60.0 / drum_speed_rpm(drum)
+    window = PowerWindow(recorder, "drum", after, turn, sim.power_se_target) if sim.power_se_target else None
     results = engine.run(end, sim.sample_every_s, recorder, label="drum", checkpoint=checkpoint,
-                         phases=((0.0, "settle"), (sim.settle_s, "rotate"), (after, "average")))
+                         phases=((0.0, "settle"), (sim.settle_s, "rotate"), (after, "average")), stop=window)
     power, power_se = results.mean_power_w("drum", after)
     power_roll, _ = results.mean_power_w("drum", after, rolling=True)
     loads = results.loads[results.loads.t_s > after]
@@ -251,6 +284,7 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
         "torque_axis_with_rolling_nm": float((loads.torque_axis_nm + loads.torque_rolling_axis_nm).mean()),
         "power_w": power, "power_se_w": power_se, "power_with_rolling_w": power_roll,
         "simulated_s": engine.time_s, "averaging_from_s": after,
+        "averaging_ended_by": window.reason if window else "the configured duration (sim.duration_s)",
         **impact_statistics(results.collisions, after, engine.time_s, float(engine.p.mass_np.sum())),
     }
     write_json(summary_path, summary)  # last: its presence marks a finished cache entry

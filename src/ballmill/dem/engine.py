@@ -18,6 +18,7 @@ neither depends on the number of threads.
 import logging
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -223,9 +224,11 @@ class Engine:
         return spent
 
     def run(self, duration_s: float, sample_every_s: float, recorder: Recorder | None = None,
-            label: str = "run", checkpoint: Checkpoint | None = None, phases: tuple = ()) -> Results:
+            label: str = "run", checkpoint: Checkpoint | None = None, phases: tuple = (),
+            stop: Callable[[], bool] | None = None) -> Results:
         """Advance by duration_s, sampling every sample_every_s (rounded to whole steps); with a
-        checkpoint, continue an interrupted run from it and save one every checkpoint.every_s.
+        checkpoint, continue an interrupted run from it and save one every checkpoint.every_s;
+        `stop()`, asked after every sample, ends the run early when it returns True.
 
         Progress: a bar (simulated time, phase, particle-steps per second, ETA) on a terminal,
         else a log line every `progress_every_s`; `phases` are (start time (s), name) pairs."""
@@ -253,6 +256,8 @@ class Engine:
                 log.info("%s: t=%.4f s %s(%d/%d samples), %.3g particle-steps/s", label,
                          self.time_s, f"{phase} " if phase else "", s + 1, n_samples, rate)
                 last_log = now
+            if stop is not None and stop():
+                break
         bar.close()
         return recorder.finish()
 

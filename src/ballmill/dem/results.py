@@ -43,11 +43,15 @@ class Results:
         """Mean power (W) delivered by `body` after `after_s`, with its standard error from
         `blocks` batch means (robust to the autocorrelation of the signal)."""
         df = self.loads[(self.loads.body == body) & (self.loads.t_s > after_s)]
-        p = (df.power_w + (df.power_rolling_w if rolling else 0.0)).to_numpy()
-        if len(p) < blocks:
-            return float(p.mean()), float("nan")
-        means = np.array([c.mean() for c in np.array_split(p, blocks)])
-        return float(p.mean()), float(means.std(ddof=1) / np.sqrt(blocks))
+        return batch_mean((df.power_w + (df.power_rolling_w if rolling else 0.0)).to_numpy(), blocks)
+
+
+def batch_mean(values: np.ndarray, blocks: int = 10) -> tuple[float, float]:
+    """The mean of a series and its standard error from `blocks` batch means (nan: too short)."""
+    if len(values) < blocks:
+        return float(np.mean(values)) if len(values) else float("nan"), float("nan")
+    means = np.array([c.mean() for c in np.array_split(values, blocks)])
+    return float(values.mean()), float(means.std(ddof=1) / np.sqrt(blocks))
 
 
 class ParquetSink:
@@ -143,6 +147,14 @@ class Recorder:
             impact_speed_m_per_s=vals[:, 0], impact_energy_j=0.5 * m_eff * vals[:, 0] ** 2,
             dissipated_j=vals[:, 1],
         )
+
+    def power_so_far(self, body: str) -> tuple[np.ndarray, np.ndarray]:
+        """Sample times (s) and power (W) of `body` recorded so far (all replicas)."""
+        cols = self.columns["loads"]
+        if not cols["t_s"]:
+            return np.empty(0), np.empty(0)
+        mine = np.concatenate(cols["body"]) == body
+        return np.concatenate(cols["t_s"])[mine], np.concatenate(cols["power_w"])[mine]
 
     def state(self) -> dict:
         return {"n_samples": self.n_samples, "snapshots": list(self.snapshots),
