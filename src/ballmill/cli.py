@@ -30,9 +30,11 @@ from .config import COMMANDS as SCHEMAS
 from .config import (
     CONF_DIR,
     ConfigError,
+    DemConfig,
     DrumConfig,
     EconomicsConfig,
     MM400Config,
+    OptimiserConfig,
     PlantConfig,
     ScaleupConfig,
     SimConfig,
@@ -157,7 +159,7 @@ class Command:
 
 RUN_GROUPS = (("sim", SimConfig), ("mill", DrumConfig), ("scaleup", ScaleupConfig), ("economics", EconomicsConfig),
               ("lab", MM400Config), ("study", StudyConfig), ("yield_model", YieldModelConfig),
-              ("plant", PlantConfig))
+              ("plant", PlantConfig), ("dem", DemConfig), ("optimiser", OptimiserConfig))
 LAB_GROUPS = (("sim", SimConfig), ("lab", MM400Config))
 COMMANDS = {
     "run": Command("one scenario, or a sweep (-m, or +sweep=NAME from conf/sweep/)", None, RUN_GROUPS),
