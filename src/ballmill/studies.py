@@ -128,7 +128,7 @@ def run_drum(s: Scenario, drum: DrumConfig, out_dir: Path | None = None) -> tupl
 
 
 def drum_record(run: DrumRun, dem_dir: Path) -> dict:
-    return {f"dem_{k}": v for k, v in run.summary.items()} | {"dem_dir": str(dem_dir)}
+    return prefixed(run.summary, "dem") | {"dem_dir": str(dem_dir)}
 
 
 def run_dose(run: DrumRun, mass_kg: float, s: Scenario) -> dict:
@@ -183,13 +183,11 @@ def mechanics(s: Scenario, design, out_dir: Path | None = None) -> tuple[dict, d
         run, dem_dir = run_drum(s, drum, out_dir)
         return drum_record(run, dem_dir) | {"dem_source": "full"}, run_dose(run, pet_kg, s)
     p = predict_drum(load_surrogate(s.dem.table), drum, s.materials, s.interactions, s.dem.allow_extrapolation)
-    record = {f"dem_{k}": v for k, v in p.items()} | {"dem_source": "surrogate", "dem_table": s.dem.table}
-    nan = float("nan")
-    rates = {"impact_threshold_j": s.yield_model.impact_threshold_j,
-             "collision_power_w_per_kg": p["collision_power_w"] / pet_kg,
-             "collision_power_w_per_kg_se": p["collision_power_se_w"] / pet_kg}
-    rates |= {k: nan for k in MEASURES if k not in rates} | {f"{k}_se": nan for k in MEASURES if f"{k}_se" not in rates}
-    return record, rates
+    record = prefixed(p, "dem") | {"dem_source": "surrogate", "dem_table": s.dem.table}
+    unknown = {k: float("nan") for m in MEASURES for k in (m, f"{m}_se")}  # the surrogate predicts collision power
+    return record, unknown | {"impact_threshold_j": s.yield_model.impact_threshold_j,
+                              "collision_power_w_per_kg": p["collision_power_w"] / pet_kg,
+                              "collision_power_w_per_kg_se": p["collision_power_se_w"] / pet_kg}
 
 
 @dataclass
