@@ -86,8 +86,60 @@ class SimConfig:
 
 
 @dataclass
+class LinerConfig:
+    """The shell's inner profile: smooth, `count` lifter bars (trapezoids standing on the shell:
+    height, top width, faces inclined `face_angle_deg` from the radial line, wider at the base)
+    or a wave liner (`count` waves of peak-to-trough `height`).  Lengths in metres, or as
+    fractions (height of the inner diameter, top width of the height) for mills sized by the
+    scale-up; give one of each pair."""
+
+    kind: str = field(default="smooth", metadata={"choices": ("smooth", "bars", "wave")})
+    count: int = rng(0, 0, None, doc="lifter bars or waves around the shell")
+    height_m: float | None = rng(None, 0.0, None, lo_open=True)
+    height_to_diameter: float | None = rng(None, 0.0, 0.25, lo_open=True)
+    top_width_m: float | None = rng(None, 0.0, None, lo_open=True, doc="bars: width of the bar's top")
+    top_width_to_height: float | None = rng(None, 0.0, None, lo_open=True)
+    face_angle_deg: float = rng(0.0, 0.0, 60.0, doc="bars: each face's tilt from the radial line")
+    first_angle_deg: float = rng(0.0, None, None, doc="angular position of the first bar or wave crest")
+
+    def __post_init__(self):
+        if self.kind == "smooth":
+            return
+        if self.count < 1:
+            raise ConfigError(f"liner.count={self.count}: a {self.kind} liner needs at least 1 bar or wave")
+        if (self.height_m is None) == (self.height_to_diameter is None):
+            raise ConfigError(f"liner: give one of height_m ({self.height_m}) and height_to_diameter "
+                              f"({self.height_to_diameter}), the other null")
+        if self.kind == "bars" and (self.top_width_m is None) == (self.top_width_to_height is None):
+            raise ConfigError(f"liner: bars need one of top_width_m ({self.top_width_m}) and top_width_to_height "
+                              f"({self.top_width_to_height}), the other null")
+
+
+@dataclass
+class BallSizeConfig:
+    """One size of a graded charge: a diameter and either a ball count or a mass fraction."""
+
+    diameter_m: float = rng(0.02, 0.0, None, lo_open=True)
+    count: int | None = rng(None, 1, None)
+    mass_fraction: float | None = rng(None, 0.0, 1.0, lo_open=True)
+
+
+def check_charge(name: str, charge: list[BallSizeConfig]) -> None:
+    """All sizes by count, or all by mass fraction summing to 1."""
+    if not charge:
+        return
+    by_count = [c.count is not None for c in charge]
+    by_mass = [c.mass_fraction is not None for c in charge]
+    if not (all(by_count) and not any(by_mass)) and not (all(by_mass) and not any(by_count)):
+        raise ConfigError(f"{name}: give every size a count, or every size a mass_fraction (not both, none or a mix)")
+    if all(by_mass) and abs(sum(c.mass_fraction for c in charge) - 1.0) > 1e-6:
+        raise ConfigError(f"{name}: the mass fractions sum to {sum(c.mass_fraction for c in charge):g}, not 1")
+
+
+@dataclass
 class DrumConfig:
-    """A horizontal rotating drum (axis along y), flat ends, smooth walls."""
+    """A horizontal rotating drum (axis along y), flat ends, smooth or lined shell, balls of
+    one size (ball_radius_m) or a graded charge."""
 
     inner_diameter_m: float = rng(0.4, 0.0, None, lo_open=True)
     inner_length_m: float = rng(0.2, 0.0, None, lo_open=True)
@@ -102,6 +154,12 @@ class DrumConfig:
     stl_segments: int = rng(128, 8, None, doc="facets around a generated STL drum")
     ball_material: str = "steel"
     wall_material: str = "steel"
+    liner: LinerConfig = field(default_factory=LinerConfig)
+    charge: list[BallSizeConfig] = field(default_factory=list, metadata={
+        "doc": "graded charge (replaces ball_radius_m; with counts it replaces the fill too)"})
+
+    def __post_init__(self):
+        check_charge("mill.charge", self.charge)
 
 
 @dataclass
@@ -559,6 +617,7 @@ def check(obj, path: str) -> None:
     if isinstance(obj, list):
         for i, v in enumerate(obj):
             _check_field(f"{path}[{i}]", v, {})
+            check(v, f"{path}[{i}]")
         return
     if not dataclasses.is_dataclass(obj):
         return

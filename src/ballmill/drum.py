@@ -35,6 +35,7 @@ from .dem.results import batch_mean
 from .dem.vtk import VtkWriter
 from .files import exclusive, read_json, write_json
 from .impacts import impact_statistics
+from .liner import liner_mesh, liner_size
 from .scaleup import critical_speed_rpm
 from .scenario import engine_materials, engine_options, time_step_s
 
@@ -85,25 +86,63 @@ class DrumRun:
     results: Results
 
 
-def drum_speed_rpm(drum: DrumConfig) -> float:
-    if drum.speed_rpm is not None:
-        return drum.speed_rpm
-    return drum.fraction_of_critical * critical_speed_rpm(drum.inner_diameter_m, 2 * drum.ball_radius_m)
+def ball_radii(drum: DrumConfig) -> np.ndarray:
+    """Radius of every ball (m): one size, or a graded charge's sizes, largest first.  A charge
+    by mass fraction holds the ball volume of `fill_fraction` of the drum at `bed_porosity`,
+    split by mass (one density), each size's count rounded."""
+    if not drum.charge:
+        return np.full(ball_count_of_size(drum, drum.ball_radius_m), drum.ball_radius_m)
+    sizes = sorted(drum.charge, key=lambda c: -c.diameter_m)
+    if sizes[0].count is not None:
+        counts = [c.count for c in sizes]
+    else:
+        volume = bed_ball_volume_m3(drum)
+        counts = [round(c.mass_fraction * volume / (math.pi / 6 * c.diameter_m**3)) for c in sizes]
+    return np.repeat([c.diameter_m / 2 for c in sizes], counts)
+
+
+def bed_ball_volume_m3(drum: DrumConfig) -> float:
+    """Volume of the balls of a bed filling `fill_fraction` of the drum at `bed_porosity` (m3)."""
+    return drum.fill_fraction * math.pi / 4 * drum.inner_diameter_m**2 * drum.inner_length_m * (1 - drum.bed_porosity)
+
+
+def ball_count_of_size(drum: DrumConfig, radius_m: float) -> int:
+    """Balls of one size in the configured bed (or the given count)."""
+    if drum.ball_count is not None:
+        return drum.ball_count
+    return max(1, round(bed_ball_volume_m3(drum) / (4 / 3 * math.pi * radius_m**3)))
 
 
 def ball_count(drum: DrumConfig) -> int:
-    """Balls in a bed filling `fill_fraction` of the drum at `bed_porosity` (or the given count)."""
-    if drum.ball_count is not None:
-        return drum.ball_count
-    volume = math.pi / 4 * drum.inner_diameter_m**2 * drum.inner_length_m
-    ball = 4 / 3 * math.pi * drum.ball_radius_m**3
-    return max(1, round(drum.fill_fraction * volume * (1 - drum.bed_porosity) / ball))
+    return len(ball_radii(drum))
+
+
+def largest_radius_m(drum: DrumConfig) -> float:
+    return max(c.diameter_m for c in drum.charge) / 2 if drum.charge else drum.ball_radius_m
+
+
+def mean_ball_diameter_m(drum: DrumConfig) -> float:
+    """Mass-weighted mean ball diameter (m): the d of the critical speed for a graded charge."""
+    r = ball_radii(drum)
+    return float(2 * (r**4).sum() / (r**3).sum())
+
+
+def critical_speed_of(drum: DrumConfig) -> float:
+    return critical_speed_rpm(drum.inner_diameter_m, mean_ball_diameter_m(drum))
+
+
+def drum_speed_rpm(drum: DrumConfig) -> float:
+    if drum.speed_rpm is not None:
+        return drum.speed_rpm
+    return drum.fraction_of_critical * critical_speed_of(drum)
 
 
 def lattice_sites(drum: DrumConfig, cell_m: float, basis: np.ndarray) -> np.ndarray:
     """Sites of a lattice (cubic cells of cell_m, `basis` points per cell in cell units) inside the
-    drum with the wall clearance."""
-    r, big_r, half = drum.ball_radius_m, drum.inner_diameter_m / 2, drum.inner_length_m / 2
+    drum with the wall clearance of its largest ball (and of the lifters' height)."""
+    r, half = largest_radius_m(drum), drum.inner_length_m / 2
+    big_r = drum.inner_diameter_m / 2 - (liner_size(drum.liner, drum.inner_diameter_m)[0]
+                                         if drum.liner.kind != "smooth" else 0.0)
     gap = WALL_CLEARANCE * r
     xs = np.arange(-big_r + gap, big_r - r, cell_m)
     ys = np.arange(-half + gap, half - r, cell_m)
@@ -115,8 +154,9 @@ def lattice_sites(drum: DrumConfig, cell_m: float, basis: np.ndarray) -> np.ndar
 
 def lattice_packing(drum: DrumConfig, n: int, seed: int) -> np.ndarray:
     """n ball centres on a loose cubic lattice (a face-centred one, 1.4x denser, when the cubic
-    one has too few sites: small drums at high fill), lowest sites first, slightly jittered (m)."""
-    r = drum.ball_radius_m
+    one has too few sites: small drums at high fill), lowest sites first, slightly jittered (m);
+    the lattice is that of the largest ball, within the lifters' tops."""
+    r = largest_radius_m(drum)
     sites = lattice_sites(drum, LATTICE_SPACING * r, np.zeros((1, 3)))
     if len(sites) < n:
         sites = lattice_sites(drum, LATTICE_SPACING * r * math.sqrt(2), FCC_BASIS)
@@ -144,25 +184,32 @@ def drum_mesh(drum: DrumConfig) -> Mesh:
         return Mesh.from_stl(path)
 
 
-def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, sim: SimConfig) -> SystemSpec:
-    """The drum, its charge at rest, turning from t = sim.settle_s at drum_speed_rpm."""
-    n = ball_count(drum)
-    big_r, half, r = drum.inner_diameter_m / 2, drum.inner_length_m / 2, drum.ball_radius_m
+def drum_walls(drum: DrumConfig) -> tuple:
+    """The drum's walls in its body frame: a user's STL, a faceted closed drum (geometry=stl), or
+    the shell (an analytic cylinder when smooth, the liner's mesh when lined) and two end planes."""
+    big_r, half = drum.inner_diameter_m / 2, drum.inner_length_m / 2
     if drum.geometry == "stl":
-        walls = (Mesh.from_stl(drum.stl_path) if drum.stl_path else drum_mesh(drum),)
-    else:
-        walls = (
-            Cylinder((0, 0, 0), AXIS, big_r, half),
-            Plane((0, -half, 0), (0, 1, 0)),
-            Plane((0, half, 0), (0, -1, 0)),
-        )
+        return (Mesh.from_stl(drum.stl_path) if drum.stl_path else drum_mesh(drum),)
+    shell = Cylinder((0, 0, 0), AXIS, big_r, half) if drum.liner.kind == "smooth" else liner_mesh(drum)
+    return shell, Plane((0, -half, 0), (0, 1, 0)), Plane((0, half, 0), (0, -1, 0))
+
+
+def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, sim: SimConfig) -> SystemSpec:
+    """The drum, its charge at rest (sizes shuffled over the lattice by the seed), turning from
+    t = sim.settle_s at drum_speed_rpm."""
+    radii = ball_radii(drum)
+    n = len(radii)
+    if drum.charge:
+        radii = np.random.default_rng(sim.seed + 1).permutation(radii)
+    big_r, half, r = drum.inner_diameter_m / 2, drum.inner_length_m / 2, largest_radius_m(drum)
+    walls = drum_walls(drum)
     omega = drum_speed_rpm(drum) * 2 * math.pi / 60
     motion = Motion(axis=AXIS, angular_velocity_rad_per_s=omega, start_time_s=sim.settle_s)
     margin = 4 * r
     names = sorted(materials)
     return SystemSpec(
         materials=materials, interactions=[interactions], material_names=names,
-        position_m=lattice_packing(drum, n, sim.seed), radius_m=np.full(n, r),
+        position_m=lattice_packing(drum, n, sim.seed), radius_m=radii,
         material=np.full(n, names.index(drum.ball_material)),
         bodies=[Body("drum", drum.wall_material, walls, (motion,))],
         domain_lo_m=(-big_r - margin, -half - margin, -big_r - margin),
@@ -192,11 +239,15 @@ def check_stl(path: str) -> None:
 
 def drum_spec(drum: DrumConfig, materials, interactions, sim: SimConfig) -> SystemSpec:
     """The engine's system for a drum config (checks materials, the STL and that the balls fit)."""
-    d_ball = 2 * drum.ball_radius_m
+    d_ball = 2 * largest_radius_m(drum)
     if d_ball >= min(drum.inner_diameter_m, drum.inner_length_m) / 2:
-        raise ConfigError(f"mill.ball_radius_m={drum.ball_radius_m}: balls of {d_ball:g} m do not fit a drum of "
+        field_name = "charge" if drum.charge else f"ball_radius_m={drum.ball_radius_m}"
+        raise ConfigError(f"mill.{field_name}: balls of {d_ball:g} m do not fit a drum of "
                           f"D {drum.inner_diameter_m:g} m x L {drum.inner_length_m:g} m "
                           "(at most a quarter of the smaller side)")
+    if drum.liner.kind != "smooth" and drum.geometry == "stl":
+        raise ConfigError(f"mill.liner.kind={drum.liner.kind} builds the shell's mesh itself: use geometry=analytic "
+                          "(the end walls stay planes), or draw the lifters into your STL")
     check_memory(ball_count(drum), sim)
     if drum.geometry == "stl" and drum.stl_path:
         check_stl(drum.stl_path)
@@ -218,12 +269,17 @@ def check_memory(n_balls: int, sim: SimConfig) -> None:
 def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
     """Hash of everything that determines a drum DEM result (prices and feeds do not, nor the
     thread count, the neighbour skin, the launch mode, checkpoints or progress: results are
-    identical bits whatever they are; an unset power_se_target is left out, so runs keep the
-    keys they had before it existed)."""
+    identical bits whatever they are; an unset power_se_target, a smooth liner and an empty
+    charge are left out, so runs keep the keys they had before those existed)."""
     numerics = {k: v for k, v in asdict(sim).items()
                 if k not in UNKEYED_SIM_FIELDS and not (k == "power_se_target" and v is None)}
+    mill = asdict(drum)
+    if drum.liner.kind == "smooth":
+        del mill["liner"]
+    if not drum.charge:
+        del mill["charge"]
     payload = {
-        "drum": asdict(drum), "materials": {k: asdict(v) for k, v in materials.items()},
+        "drum": mill, "materials": {k: asdict(v) for k, v in materials.items()},
         "interactions": {k: asdict(v) for k, v in interactions.items()}, "sim": numerics,
     }
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
@@ -278,7 +334,7 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
     summary = {
         "key": key,
         "balls": spec.n_particles, "speed_rpm": drum_speed_rpm(drum),
-        "critical_speed_rpm": critical_speed_rpm(drum.inner_diameter_m, 2 * drum.ball_radius_m),
+        "critical_speed_rpm": critical_speed_of(drum),
         "dt_s": dt, "rayleigh_dt_s": spec.rayleigh_timestep_s(),
         "torque_axis_nm": float(loads.torque_axis_nm.mean()),
         "torque_axis_with_rolling_nm": float((loads.torque_axis_nm + loads.torque_rolling_axis_nm).mean()),

@@ -1,0 +1,93 @@
+"""Lifter bars and wave liners: the profile's geometry, and a ball carried by a lifter."""
+
+import math
+
+import numpy as np
+import pytest
+from helpers import run
+
+from ballmill.config import ConfigError, DrumConfig, LinerConfig
+from ballmill.dem import Body, Interaction, Material, Motion, SystemSpec
+from ballmill.drum import AXIS, drum_speed_rpm, drum_walls
+from ballmill.liner import liner_mesh, liner_profile
+
+SOFT_STEEL = Material("steel", 7900.0, 77e7, 0.3)  # shear modulus 100x lower: fewer steps
+G = 9.81
+
+
+def bars(count=1, height=0.03, width=0.02, face=0.0, first=0.0, d=0.4, length=0.08):
+    liner = LinerConfig(kind="bars", count=count, height_m=height, top_width_m=width, face_angle_deg=face,
+                        first_angle_deg=first)
+    return DrumConfig(inner_diameter_m=d, inner_length_m=length, ball_radius_m=0.01, ball_count=1,
+                      fraction_of_critical=0.1, liner=liner, stl_segments=720)  # facets 2 um from the circle
+
+
+def test_bar_profile_has_the_requested_height_top_width_and_face_angle():
+    drum = bars(count=6, height=0.03, width=0.02, face=30.0, first=90.0)
+    p = liner_profile(drum)
+    r = np.hypot(p[:, 0], p[:, 1])
+    assert r.max() == pytest.approx(0.2, abs=1e-12)
+    top = p[np.isclose(p[:, 1], 0.17)]  # the bar at 90 deg: its top at z = R - h
+    assert len(top) == 2 and np.ptp(top[:, 0]) == pytest.approx(0.02, abs=1e-12)
+    face = p[0] - p[1]  # the first bar's corners come first: its trailing face, top to base
+    assert math.degrees(math.atan2(abs(face[0]), face[1])) == pytest.approx(30.0, abs=1e-9)  # tilt from the radius
+    assert (r < 0.2 - 1e-9).sum() == 6 * 2  # two top corners per bar inside the shell
+    mesh = liner_mesh(drum)
+    assert len(mesh.faces) == 2 * len(p)
+
+
+def test_wave_profile_has_crests_of_the_requested_height():
+    drum = DrumConfig(inner_diameter_m=0.4, liner=LinerConfig(kind="wave", count=8, height_m=0.02))
+    r = np.hypot(*liner_profile(drum).T)
+    assert r.min() == pytest.approx(0.18, abs=1e-9) and r.max() == pytest.approx(0.2, abs=1e-9)
+
+
+def test_overlapping_or_too_high_bars_are_refused():
+    with pytest.raises(ConfigError, match="overlap"):
+        liner_profile(bars(count=60, width=0.03))
+    with pytest.raises(ConfigError, match="half the shell's radius"):
+        liner_profile(bars(height=0.12))
+
+
+def rotate(xz, angle):
+    """Body-frame (x, z) vectors to world after the drum turned `angle` about +y (clockwise seen with z up)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([xz[..., 0] * c + xz[..., 1] * s, -xz[..., 0] * s + xz[..., 1] * c], axis=-1)
+
+
+@pytest.mark.parametrize("face_angle", [0.0, 30.0])
+def test_a_ball_on_a_lifter_is_carried_until_the_face_levels_in_the_effective_gravity(face_angle):
+    """A ball in the corner of the shell and a lifter's leading face (no rolling friction) stays
+    there while gravity plus the centrifugal force presses it along the face toward the shell;
+    it leaves the shell when that component vanishes: face angle 0 near 90 deg past the bottom,
+    30 deg about 30 deg earlier."""
+    lifter_at = -70.0  # deg in the (x, z) plane; the ball starts at the bottom, -90 deg, ahead of it
+    drum = bars(face=face_angle, first=lifter_at)
+    big_r, r = drum.inner_diameter_m / 2, drum.ball_radius_m
+    omega = drum_speed_rpm(drum) * 2 * math.pi / 60
+    spec = SystemSpec(
+        materials={"steel": SOFT_STEEL}, interactions=[{("steel", "steel"): Interaction(0.5, 0.5, 0.0)}],
+        position_m=np.array([[0.0, 0.0, -(big_r - r - 1e-4)]]), radius_m=np.array([r]), material=np.zeros(1),
+        bodies=[Body("drum", "steel", drum_walls(drum), (Motion(axis=AXIS, angular_velocity_rad_per_s=omega),))],
+        domain_lo_m=(-0.3, -0.1, -0.3), domain_hi_m=(0.3, 0.1, 0.3), gravity_m_per_s2=(0, 0, -G),
+    )
+    _, results = run(spec, 2e-5, 2.9, sample_every=0.002, trajectory_every=1)
+    tr = results.trajectories.sort_values("t_s")
+    phi = omega * tr.t_s.to_numpy()
+    body = rotate(tr[["x_m", "z_m"]].to_numpy(), -phi)  # the ball in the body frame
+    gap = (big_r - r) - np.hypot(*body.T)
+    off = np.flatnonzero((phi > math.radians(50)) & (gap > 1e-5))
+    assert len(off), "the ball never left the shell"
+    assert gap[off[0] - 100:off[0]].max() < 1e-5, "the ball was not carried in the corner before it left"
+    released = phi[off[0]]
+    corner = body[off[0] - 20]  # the ball in the corner, 2.4 deg before it left
+    # the leading face (toward lower angles, where the drum turns), from its top to the shell
+    a, alpha = math.radians(lifter_at), math.radians(face_angle)
+    e_r, e_t = np.array([math.cos(a), math.sin(a)]), np.array([-math.sin(a), math.cos(a)])
+    down_face = math.cos(alpha) * e_r - math.sin(alpha) * e_t
+    angles = np.linspace(0.2, 3.0, 28001)
+    g_eff = np.array([0.0, -G]) + omega**2 * rotate(corner, angles)
+    pressing = (g_eff * rotate(down_face, angles)).sum(axis=1)
+    predicted = angles[np.argmax(pressing < 0)]
+    assert math.degrees(released) == pytest.approx(math.degrees(predicted), abs=2.0)
+    assert math.degrees(predicted) == pytest.approx(110.0 - face_angle, abs=3.0)  # the face horizontal
