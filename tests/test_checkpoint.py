@@ -1,5 +1,6 @@
 """Checkpoint and restart: a drum run killed part-way and started again ends with the tables of
-an uninterrupted run, bit for bit."""
+an uninterrupted run, bit for bit (a smooth drum of one ball size, and a lifter drum with a
+bidisperse charge)."""
 
 import json
 import os
@@ -10,29 +11,37 @@ import time
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 RUN = """
 import logging
 import sys
 logging.basicConfig(level=logging.INFO)
-from ballmill.config import DrumConfig, InteractionConfig, MaterialConfig, SimConfig
+from ballmill.config import BallSizeConfig, DrumConfig, InteractionConfig, LinerConfig, MaterialConfig, SimConfig
 from ballmill.drum import simulate_drum
 sim = SimConfig(shear_modulus_scale=1e-2, settle_s=0.1, duration_s=0.5, sample_every_s=0.01, steady_after_s=0.1,
                 checkpoint_every_s=0.05)
-drum = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.01)
+drum = {drum}
 simulate_drum(drum, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, sim, sys.argv[1])
 """
 
 
-def run(folder: Path) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-c", RUN, str(folder)], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True)
+SMOOTH = "DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.01)"
+LIFTERS_BIDISPERSE = ("DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, liner=LinerConfig(kind='bars', count=6, "
+                      "height_m=0.02, top_width_m=0.015, face_angle_deg=15), "
+                      "charge=[BallSizeConfig(0.024, 80), BallSizeConfig(0.016, 150)])")
 
 
-def test_a_killed_run_resumes_from_its_checkpoint_and_ends_with_identical_tables(tmp_path):
+def run(folder: Path, drum: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-c", RUN.replace("{drum}", drum), str(folder)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+
+@pytest.mark.parametrize("drum", [SMOOTH, LIFTERS_BIDISPERSE], ids=["smooth", "lifters_bidisperse"])
+def test_a_killed_run_resumes_from_its_checkpoint_and_ends_with_identical_tables(tmp_path, drum):
     whole, killed = tmp_path / "whole", tmp_path / "killed"
-    assert run(whole).wait(timeout=300) == 0
-    proc = run(killed)
+    assert run(whole, drum).wait(timeout=300) == 0
+    proc = run(killed, drum)
     deadline = time.time() + 300
     while not (killed / "checkpoint.npz").exists() and time.time() < deadline and proc.poll() is None:
         time.sleep(0.05)
@@ -40,7 +49,7 @@ def test_a_killed_run_resumes_from_its_checkpoint_and_ends_with_identical_tables
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     assert (killed / "checkpoint.npz").exists() and not (killed / "dem_summary.json").exists()
-    resumed = run(killed)
+    resumed = run(killed, drum)
     _, err = resumed.communicate(timeout=300)
     assert resumed.returncode == 0, err
     assert "resumed from" in err

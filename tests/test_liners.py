@@ -1,14 +1,14 @@
-"""Lifter bars and wave liners: the profile's geometry, and a ball carried by a lifter."""
+"""Lifter bars and wave liners (the profile's geometry, a ball carried by a lifter) and graded charges."""
 
 import math
 
 import numpy as np
 import pytest
-from helpers import run
+from helpers import MATERIALS, PAIRS, run
 
-from ballmill.config import ConfigError, DrumConfig, LinerConfig
+from ballmill.config import BallSizeConfig, ConfigError, DrumConfig, LinerConfig, SimConfig, check_charge
 from ballmill.dem import Body, Interaction, Material, Motion, SystemSpec
-from ballmill.drum import AXIS, drum_speed_rpm, drum_walls
+from ballmill.drum import AXIS, ball_radii, bed_ball_volume_m3, drum_speed_rpm, drum_spec, drum_walls
 from ballmill.liner import liner_mesh, liner_profile
 
 SOFT_STEEL = Material("steel", 7900.0, 77e7, 0.3)  # shear modulus 100x lower: fewer steps
@@ -91,3 +91,31 @@ def test_a_ball_on_a_lifter_is_carried_until_the_face_levels_in_the_effective_gr
     predicted = angles[np.argmax(pressing < 0)]
     assert math.degrees(released) == pytest.approx(math.degrees(predicted), abs=2.0)
     assert math.degrees(predicted) == pytest.approx(110.0 - face_angle, abs=3.0)  # the face horizontal
+
+
+def test_a_graded_charge_is_packed_with_the_requested_sizes():
+    by_count = DrumConfig(inner_diameter_m=0.305, inner_length_m=0.305, speed_rpm=70.0,
+                          charge=[BallSizeConfig(0.0368, 43), BallSizeConfig(0.0297, 67), BallSizeConfig(0.0254, 10),
+                                  BallSizeConfig(0.0191, 71), BallSizeConfig(0.0155, 94)])
+    spec = drum_spec(by_count, MATERIALS, PAIRS, SimConfig())
+    sizes, counts = np.unique(spec.radius_m * 2, return_counts=True)
+    assert dict(zip(sizes.round(4), counts)) == {0.0155: 94, 0.0191: 71, 0.0254: 10, 0.0297: 67, 0.0368: 43}
+    gaps = np.linalg.norm(spec.position_m[:, None] - spec.position_m[None], axis=2) - spec.radius_m[:, None] - \
+        spec.radius_m[None]
+    assert gaps[~np.eye(len(gaps), dtype=bool)].min() > 0  # no ball starts in contact
+    assert len(set(spec.radius_m[:43])) > 1  # sizes shuffled over the lattice, not layered
+
+    fractions = [0.5, 0.3, 0.2]
+    by_mass = DrumConfig(inner_diameter_m=0.4, inner_length_m=0.2, fill_fraction=0.3,
+                         charge=[BallSizeConfig(d, mass_fraction=f) for d, f in zip((0.03, 0.02, 0.015), fractions)])
+    r = ball_radii(by_mass)
+    mass = np.array([(r[np.isclose(r, d / 2)] ** 3).sum() for d in (0.03, 0.02, 0.015)])
+    assert mass / mass.sum() == pytest.approx(fractions, abs=0.01)  # a ball's rounding
+    assert (r**3).sum() * 4 / 3 * math.pi == pytest.approx(bed_ball_volume_m3(by_mass), rel=0.01)
+
+
+def test_a_charge_by_count_and_mass_fraction_at_once_is_refused():
+    with pytest.raises(ConfigError, match="every size a count, or every size a mass_fraction"):
+        check_charge("mill.charge", [BallSizeConfig(0.02, 10), BallSizeConfig(0.01, mass_fraction=0.5)])
+    with pytest.raises(ConfigError, match="sum to 0.9"):
+        check_charge("mill.charge", [BallSizeConfig(0.02, mass_fraction=0.4), BallSizeConfig(0.01, mass_fraction=0.5)])

@@ -71,8 +71,13 @@ class NeighbourList:
         self.dims = tuple(int(d) for d in dims)
         self.cells_per_rep = int(np.prod(dims))
         r_min = float(spec.radius_m.min())
-        # centres at least 2 r_min (1 - 5 % overlap) apart: at most (h / 1.9 r_min + 1)^3 in a cell
+        # centres at least 2 r_min (1 - 5 % overlap) apart: one size, at most (h / 1.9 r_min + 1)^3 in a
+        # cell; several sizes (h up to 2 r_max + skin), at most what the densest packing (0.7405) of
+        # those spheres puts in the cell widened by their radius
         self.cell_cap = (math.floor(self.h / (1.9 * r_min)) + 1) ** 3
+        if r_min < float(spec.radius_m.max()):
+            ball = 4 / 3 * math.pi * (0.95 * r_min) ** 3
+            self.cell_cap = max(self.cell_cap, math.floor(0.7405 * (self.h + 1.9 * r_min) ** 3 / ball))
         self.cell_count = ti.field(ti.i32, self.cells_per_rep * self.n_rep)
         self.cell_list = ti.field(ti.i32, (self.cells_per_rep * self.n_rep, self.cell_cap))
 
