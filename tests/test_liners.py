@@ -8,7 +8,7 @@ from helpers import MATERIALS, PAIRS, run
 
 from ballmill.config import BallSizeConfig, ConfigError, DrumConfig, LinerConfig, SimConfig, check_charge
 from ballmill.dem import Body, Interaction, Material, Motion, SystemSpec
-from ballmill.drum import AXIS, ball_radii, bed_ball_volume_m3, drum_speed_rpm, drum_spec, drum_walls
+from ballmill.drum import AXIS, ball_radii, bed_ball_volume_m3, drum_spec, drum_speed_rpm, drum_walls
 from ballmill.liner import liner_mesh, liner_profile
 
 SOFT_STEEL = Material("steel", 7900.0, 77e7, 0.3)  # shear modulus 100x lower: fewer steps

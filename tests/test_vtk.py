@@ -10,6 +10,7 @@ import pandas as pd
 from helpers import DRUM_SIM, MATERIALS, PAIRS, small_drum
 
 from ballmill.drum import drum_mesh, simulate_drum
+from ballmill.liner import liner_profile
 from ballmill.plots import plot_bed, save_figure
 
 
@@ -33,10 +34,12 @@ def test_vtk_series_holds_the_particles_and_the_turned_drum(tmp_path):
 
 
 def test_bed_picture_is_drawn_from_the_recorded_instants(analytic_drum_run, tmp_path):
-    _, folder = analytic_drum_run
+    summary, folder = analytic_drum_run
     traj = pd.read_parquet(folder / "trajectories.parquet")
-    assert traj.t_s.nunique() == 4  # the snapshots of the averaging window
-    fig = plot_bed(traj, 0.01, 0.15)
+    assert traj.t_s.nunique() == 40  # the snapshots of the averaging window (304 balls: the most)
+    drum = small_drum("analytic")
+    fig = plot_bed(traj, np.full(summary["balls"], 0.01), liner_profile(drum), summary["speed_rpm"] * math.pi / 30,
+                   0.3, summary)
     assert len(fig.axes) == 5  # four instants and the colour bar
     save_figure(fig, tmp_path / "bed")
     assert (tmp_path / "bed.png").stat().st_size > 10_000

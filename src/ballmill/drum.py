@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .charge_shape import charge_shape, morrell_net_power_w, morrell_toe_shoulder_deg, torque_arm_power_w
 from .config import ConfigError, DrumConfig, SimConfig
 from .dem import (
     Body,
@@ -42,7 +43,10 @@ from .scenario import engine_materials, engine_options, time_step_s
 log = logging.getLogger(__name__)
 AXIS = (0.0, 1.0, 0.0)  # drum axis; gravity is -z
 TYPICAL_RATE = 5e6  # particle-steps/s of a drum on two cores (see README, Benchmark): for the run's ETA line
-BED_SNAPSHOTS = 4  # particle states recorded at this many instants of the averaging window (bed picture)
+# particle states recorded at instants of the averaging window (charge shape, bed picture): at
+# least 4, and enough for about 20,000 ball positions, at most 40
+SNAPSHOT_BALLS, MIN_SNAPSHOTS, MAX_SNAPSHOTS = 20_000, 4, 40
+MORRELL_K = 1.26  # C-model: measured net power / the model's (Morrell 1996; wiki.metdynamics.com.au)
 # The starting lattice: sites 2.04 r apart (2 % gaps, so no ball starts in contact) at least
 # 1.05 r from the walls (5 % clearance): a loose bed that settles in a fraction of a second.
 LATTICE_SPACING = 2.04
@@ -101,6 +105,12 @@ def ball_radii(drum: DrumConfig) -> np.ndarray:
     return np.repeat([c.diameter_m / 2 for c in sizes], counts)
 
 
+def ball_radii_as_run(drum: DrumConfig, seed: int) -> np.ndarray:
+    """Radius of each particle of the DEM (m): a graded charge's sizes shuffled over the lattice."""
+    radii = ball_radii(drum)
+    return np.random.default_rng(seed + 1).permutation(radii) if drum.charge else radii
+
+
 def bed_ball_volume_m3(drum: DrumConfig) -> float:
     """Volume of the balls of a bed filling `fill_fraction` of the drum at `bed_porosity` (m3)."""
     return drum.fill_fraction * math.pi / 4 * drum.inner_diameter_m**2 * drum.inner_length_m * (1 - drum.bed_porosity)
@@ -115,6 +125,10 @@ def ball_count_of_size(drum: DrumConfig, radius_m: float) -> int:
 
 def ball_count(drum: DrumConfig) -> int:
     return len(ball_radii(drum))
+
+
+def charge_mass_kg(drum: DrumConfig, density_kg_per_m3: float) -> float:
+    return float(density_kg_per_m3 * 4 / 3 * math.pi * (ball_radii(drum) ** 3).sum())
 
 
 def largest_radius_m(drum: DrumConfig) -> float:
@@ -197,10 +211,8 @@ def drum_walls(drum: DrumConfig) -> tuple:
 def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, sim: SimConfig) -> SystemSpec:
     """The drum, its charge at rest (sizes shuffled over the lattice by the seed), turning from
     t = sim.settle_s at drum_speed_rpm."""
-    radii = ball_radii(drum)
+    radii = ball_radii_as_run(drum, sim.seed)
     n = len(radii)
-    if drum.charge:
-        radii = np.random.default_rng(sim.seed + 1).permutation(radii)
     big_r, half, r = drum.inner_diameter_m / 2, drum.inner_length_m / 2, largest_radius_m(drum)
     walls = drum_walls(drum)
     omega = drum_speed_rpm(drum) * 2 * math.pi / 60
@@ -254,6 +266,33 @@ def drum_spec(drum: DrumConfig, materials, interactions, sim: SimConfig) -> Syst
     mats, pairs = engine_materials(materials, interactions, sim.shear_modulus_scale, drum.ball_material,
                                    drum.wall_material)
     return drum_system(drum, mats, pairs, sim)
+
+
+def charge_fill(drum: DrumConfig) -> float:
+    """The charge's volume fraction J of the drum (balls / (1 - porosity) / drum volume)."""
+    return float((ball_radii(drum) ** 3).sum() * 4 / 3 * math.pi / (1 - drum.bed_porosity)
+                 / (math.pi / 4 * drum.inner_diameter_m**2 * drum.inner_length_m))
+
+
+def drum_charge_shape(drum: DrumConfig, trajectories, after_s: float, radii: np.ndarray, masses: np.ndarray,
+                      density_kg_per_m3: float) -> dict:
+    """Toe, shoulder, regime and torque-arm power of the charge over the averaging window (from
+    the recorded ball states), beside Morrell's empirical angles and C-model power."""
+    window = trajectories[trajectories.t_s > after_s]
+    if not len(window):
+        return {}
+    snapshots = [g.sort_values("particle")[["x_m", "y_m", "z_m"]].to_numpy() for _, g in window.groupby("t_s")]
+    lifter = liner_size(drum.liner, drum.inner_diameter_m)[0] if drum.liner.kind != "smooth" else 0.0
+    speed = drum_speed_rpm(drum)
+    shape = charge_shape(snapshots, radii, drum.inner_diameter_m / 2, lifter)
+    fill = charge_fill(drum)
+    toe, shoulder = morrell_toe_shoulder_deg(fill, speed / critical_speed_of(drum))
+    return {**{f"charge_{k}": v for k, v in shape.items()},
+            "torque_arm_power_w": torque_arm_power_w(snapshots, masses, speed * math.pi / 30),
+            "morrell_toe_deg": toe, "morrell_shoulder_deg": shoulder,
+            "morrell_net_power_w": MORRELL_K * morrell_net_power_w(
+                drum.inner_diameter_m, drum.inner_length_m, speed, fill,
+                density_kg_per_m3 * (1 - drum.bed_porosity), toe, shoulder)}
 
 
 def check_memory(n_balls: int, sim: SimConfig) -> None:
@@ -319,11 +358,14 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
     after = sim.settle_s + sim.steady_after_s
     end = sim.settle_s + sim.duration_s
     sinks = (ParquetSink(out_dir), *((VtkWriter(out_dir, sim.vtk_every),) if sim.vtk_every else ()))
-    recorder = Recorder(engine, sim.trajectory_every, np.linspace(after, end, BED_SNAPSHOTS + 1)[1:], sinks)
+    snapshots = int(np.clip(math.ceil(SNAPSHOT_BALLS / spec.n_particles), MIN_SNAPSHOTS, MAX_SNAPSHOTS))
+    recorder = Recorder(engine, sim.trajectory_every, np.linspace(after, end, snapshots + 1)[1:], sinks)
     turn = 60.0 / drum_speed_rpm(drum)
     window = PowerWindow(recorder, "drum", after, turn, sim.power_se_target) if sim.power_se_target else None
     results = engine.run(end, sim.sample_every_s, recorder, label="drum", checkpoint=checkpoint,
                          phases=((0.0, "settle"), (sim.settle_s, "rotate"), (after, "average")), stop=window)
+    shape = drum_charge_shape(drum, results.trajectories, after, spec.radius_m, engine.p.mass_np,
+                              float(spec.materials[drum.ball_material].density_kg_per_m3))
     power, power_se = results.mean_power_w("drum", after)
     power_roll, _ = results.mean_power_w("drum", after, rolling=True)
     loads = results.loads[results.loads.t_s > after]
@@ -342,6 +384,7 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
         "simulated_s": engine.time_s, "averaging_from_s": after,
         "averaging_ended_by": window.reason if window else "the configured duration (sim.duration_s)",
         **impact_statistics(results.collisions, after, engine.time_s, float(engine.p.mass_np.sum())),
+        **shape,
     }
     write_json(summary_path, summary)  # last: its presence marks a finished cache entry
     if checkpoint:

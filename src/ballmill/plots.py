@@ -138,31 +138,45 @@ def plot_impact_spectra(spectra: pd.DataFrame):
     return fig
 
 
-def plot_bed(trajectories: pd.DataFrame, radius_m: float, drum_radius_m: float):
-    """Side view of the drum (along its axis) at each recorded instant, balls coloured by speed,
-    so cascading and cataracting can be told apart at a glance."""
+def plot_bed(trajectories: pd.DataFrame, radii_m: np.ndarray, profile_m: np.ndarray, omega_rad_per_s: float,
+             start_s: float, shape: dict | None = None):
+    """Side view of the drum (along its axis) at four recorded instants, balls coloured by speed,
+    so cascading and cataracting can be told apart at a glance; the shell's profile (lifters) as
+    turned at that instant, and the charge's toe and shoulder where `shape` gives them."""
     from matplotlib.collections import PatchCollection
-    from matplotlib.patches import Circle
+    from matplotlib.patches import Circle, Polygon
 
     times = sorted(trajectories.t_s.unique())
+    times = [times[k] for k in np.linspace(0, len(times) - 1, min(4, len(times))).round().astype(int)]
     fig, axes = plt.subplots(1, len(times), figsize=(3.2 * len(times), 3.4), squeeze=False)
     speed = np.sqrt(trajectories.vx_m_per_s**2 + trajectories.vy_m_per_s**2 + trajectories.vz_m_per_s**2)
     vmax = float(speed.quantile(0.99)) or 1.0
+    big_r = float(np.hypot(*profile_m.T).max())
     for ax, t in zip(axes[0], times):
         g = trajectories[trajectories.t_s == t].sort_values("y_m")
-        balls = PatchCollection([Circle((x, z), radius_m) for x, z in zip(g.x_m, g.z_m)], cmap="viridis",
-                                edgecolor="none")
+        balls = PatchCollection([Circle((x, z), radii_m[i]) for x, z, i in zip(g.x_m, g.z_m, g.particle)],
+                                cmap="viridis", edgecolor="none")
         balls.set_array(np.sqrt(g.vx_m_per_s**2 + g.vy_m_per_s**2 + g.vz_m_per_s**2).to_numpy())
         balls.set_clim(0.0, vmax)
         ax.add_collection(balls)
-        ax.add_patch(Circle((0, 0), drum_radius_m, fill=False, lw=1.0, color="k"))
-        ax.set_xlim(-1.05 * drum_radius_m, 1.05 * drum_radius_m)
-        ax.set_ylim(-1.05 * drum_radius_m, 1.05 * drum_radius_m)
+        a = omega_rad_per_s * max(t - start_s, 0.0)  # the drum turns about +y: clockwise in this view
+        turned = profile_m @ np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+        ax.add_patch(Polygon(turned, closed=True, fill=False, lw=1.0, color="k"))
+        for key, mark in (("charge_toe_deg", "v"), ("charge_shoulder_deg", "^")):
+            if shape and key in shape:  # Morrell's angles: x mirrored
+                angle = np.radians(shape[key])
+                ax.plot(-big_r * np.cos(angle), big_r * np.sin(angle), mark, color="tab:red", ms=6)
+        ax.set_xlim(-1.05 * big_r, 1.05 * big_r)
+        ax.set_ylim(-1.05 * big_r, 1.05 * big_r)
         ax.set_aspect("equal")
         ax.set_axis_off()
         ax.set_title(f"t = {t:.2f} s", fontsize=9)
     fig.colorbar(balls, ax=axes[0].tolist(), label="ball speed (m/s)", shrink=0.8)
-    fig.suptitle("Charge seen along the drum axis")
+    title = "Charge seen along the drum axis"
+    if shape and "charge_regime" in shape:
+        title += (f": {shape['charge_regime']}, toe {shape['charge_toe_deg']:.0f} deg, "
+                  f"shoulder {shape['charge_shoulder_deg']:.0f} deg (red)")
+    fig.suptitle(title, fontsize=9)
     return fig
 
 

@@ -25,7 +25,7 @@ import pandas as pd
 from .config import MM400_GEOMETRY, ConfigError, DrumConfig, SimConfig
 from .dem import SimulationError, SystemSpec
 from .dose import MEASURES, dose_j_per_kg, dose_rates, with_basis
-from .drum import DrumRun, ball_count, dem_key, drum_spec, simulate_drum
+from .drum import DrumRun, ball_radii_as_run, charge_mass_kg, dem_key, drum_spec, drum_speed_rpm, simulate_drum
 from .economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
 from .lab import conditions, jar_ball_mass_kg, mm400_spec, simulate_mm400, summarise, wall_interaction
 from .lab_dose import (
@@ -38,6 +38,7 @@ from .lab_dose import (
     lab_sim,
     simulate_kinetics_lab,
 )
+from .liner import liner_profile
 from .plant.flowsheet import flowsheet, mill_throughput_kg_per_h
 from .plant.model import Mill
 from .plant.model import evaluate as evaluate_plant
@@ -122,8 +123,8 @@ def run_drum(s: Scenario, drum: DrumConfig, out_dir: Path | None = None) -> tupl
         save_figure(plot_drum_loads(run.results.loads, steady_after_s=run.summary["averaging_from_s"]),
                     out_dir / "drum_loads")
         if len(run.results.trajectories):
-            save_figure(plot_bed(run.results.trajectories, drum.ball_radius_m, drum.inner_diameter_m / 2),
-                        out_dir / "bed")
+            save_figure(plot_bed(run.results.trajectories, ball_radii_as_run(drum, s.sim.seed), liner_profile(drum),
+                                 drum_speed_rpm(drum) * math.pi / 30, s.sim.settle_s, run.summary), out_dir / "bed")
     return run, dem_dir
 
 
@@ -147,8 +148,8 @@ def plan_drum(s: Scenario) -> Plan:
 
     def execute(out_dir: Path) -> dict:
         run, dem_dir = run_drum(s, s.mill, out_dir)
-        one_ball = s.materials[s.mill.ball_material].density_kg_per_m3 * 4 / 3 * math.pi * s.mill.ball_radius_m**3
-        return drum_record(run, dem_dir) | with_basis(run_dose(run, ball_count(s.mill) * one_ball, s), "balls")
+        balls = charge_mass_kg(s.mill, s.materials[s.mill.ball_material].density_kg_per_m3)
+        return drum_record(run, dem_dir) | with_basis(run_dose(run, balls, s), "balls")
 
     return Plan({}, execute)
 

@@ -178,6 +178,9 @@ def predict_drum(model: Surrogate, drum, materials, interactions, extrapolate: b
     from ..drum import ball_count, drum_speed_rpm
     from .space import groups, power_scale_w
 
+    if drum.liner.kind != "smooth" or drum.charge:
+        raise ConfigError(f"dem=surrogate knows smooth drums with balls of one size, not mill.liner.kind="
+                          f"{drum.liner.kind}{' or a graded mill.charge' if drum.charge else ''}: use dem=full")
     x = groups(drum, interactions)
     p = model.predict(np.array([[x[k] for k in INPUTS]]), extrapolate).iloc[0]
     n = ball_count(drum)
