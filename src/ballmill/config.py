@@ -479,6 +479,8 @@ class StudyConfig:
     kind: str = field(default="design", metadata={"choices": ("design", "drum", "lab", "yield_calibration", "plant",
                                                                  "cheapest_mill")})
     observations: str | None = field(default=None, metadata={"doc": "observations.csv drawn beside a lab study"})
+    experiment: str | None = field(default=None, metadata={
+        "doc": "drum: the experiment of data/measured_mill_power.csv the mill group reproduces"})
     report: StudyReport = field(default_factory=StudyReport)
 
 

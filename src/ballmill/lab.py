@@ -63,12 +63,13 @@ def jar_ball_mass_kg(cfg: MM400Config, ball_diameter_m: float, materials) -> flo
     return cfg.balls_per_jar * materials[cfg.ball_material].density_kg_per_m3 * math.pi / 6 * ball_diameter_m**3
 
 
-def wall_interaction(interactions: dict[str, InteractionConfig], cfg: MM400Config) -> InteractionConfig:
-    """The ball-wall entry of an 'a-b' keyed interaction table (either order)."""
+def wall_interaction(interactions: dict[str, InteractionConfig], cfg) -> InteractionConfig:
+    """The ball-wall entry of an 'a-b' keyed interaction table (either order) for a jar or drum
+    config (its ball_material and wall_material)."""
     for key in (f"{cfg.ball_material}-{cfg.wall_material}", f"{cfg.wall_material}-{cfg.ball_material}"):
         if key in interactions:
             return interactions[key]
-    raise ConfigError(f"interactions: no entry '{cfg.ball_material}-{cfg.wall_material}' for the jar wall")
+    raise ConfigError(f"interactions: no entry '{cfg.ball_material}-{cfg.wall_material}' for the wall")
 
 
 def mm400_system(cfg: MM400Config, conds: list[Condition], materials, interactions, seed: int) -> SystemSpec:

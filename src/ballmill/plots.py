@@ -180,6 +180,26 @@ def plot_bed(trajectories: pd.DataFrame, radii_m: np.ndarray, profile_m: np.ndar
     return fig
 
 
+def plot_measured_power(frame: pd.DataFrame):
+    """DEM power against the wall's friction, one line per wall restitution, beside each
+    measurement and its +-10 % band."""
+    fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    runs = frame.drop_duplicates(["wall restitution", "wall friction"])
+    for e, g in runs.groupby("wall restitution"):
+        g = g.sort_values("wall friction")
+        ax.errorbar(g["wall friction"], g["DEM W"], yerr=2 * g["DEM SE W"], marker="o", capsize=3,
+                    label=f"DEM, wall restitution {e:g}")
+    for (m, w), style in zip(frame.groupby("measurement")["measured W"].first().items(), ("-", "--", ":", "-.")):
+        ax.axhline(w, color="k", ls=style, lw=1, label=f"measured: {m}")
+        ax.axhspan(0.9 * w, 1.1 * w, color="0.85", alpha=0.4)
+    ax.set_xlabel("ball-wall static friction")
+    ax.set_ylabel("mill power (W)")
+    ax.set_title(", ".join(frame.experiment.unique()), fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
 def plot_scaleup_rule(table: pd.DataFrame):
     """Residence time, purchase cost and electricity per tonne of PET against BPR, one line per
     yield rule (`rule` column)."""

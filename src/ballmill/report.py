@@ -26,6 +26,7 @@ from .plots import (
     plot_dissipation_spectra,
     plot_impact_spectra,
     plot_lab_validation,
+    plot_measured_power,
     plot_tornado,
     save_figure,
     with_rule_labels,
@@ -33,7 +34,8 @@ from .plots import (
 from .yields import pet_fraction
 
 SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv",
-           "yield_lab_conditions.csv", "equipment_costs.csv", "macrs_7yr.csv", "plant_uncertainty.csv"]
+           "yield_lab_conditions.csv", "equipment_costs.csv", "macrs_7yr.csv", "plant_uncertainty.csv",
+           "measured_mill_power.csv"]
 
 
 def collect(sweep_dir: Path) -> pd.DataFrame:
@@ -319,6 +321,34 @@ def cheapest_mill_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir:
                 index=False, floatfmt=".3g"), ""]
 
 
+def measured_power_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
+    """Each run's DEM power against every measurement of its experiment (data/measured_mill_power.csv),
+    per wall restitution and friction, with the charge shape and the empirical models beside."""
+    measured = table("measured_mill_power.csv")
+    rows = []
+    for rec in ok.to_dict("records"):
+        for m in measured[measured.experiment == rec.get("experiment")].itertuples():
+            rows.append({
+                "experiment": m.experiment, "measurement": m.condition, "in the mill": m.charge_present,
+                "wall restitution": rec["wall_restitution"], "wall friction": rec["wall_friction"],
+                "measured W": m.measured_power_w, "DEM W": rec["dem_power_w"], "DEM SE W": rec["dem_power_se_w"],
+                "DEM / measured": rec["dem_power_w"] / m.measured_power_w,
+                "torque arm W": rec["dem_torque_arm_power_w"], "Morrell C-model W": rec["dem_morrell_net_power_w"],
+                "Bond/Rowland W": rec["bond_rowland_power_w"], "toe deg": rec["dem_charge_toe_deg"],
+                "shoulder deg": rec["dem_charge_shoulder_deg"], "Morrell toe deg": rec["dem_morrell_toe_deg"],
+                "Morrell shoulder deg": rec["dem_morrell_shoulder_deg"], "regime": rec["dem_charge_regime"]})
+    if not rows:
+        return ["No run names an experiment of data/measured_mill_power.csv (study.experiment).", ""]
+    frame = pd.DataFrame(rows).sort_values(["measurement", "wall restitution", "wall friction"])
+    write_table(frame, out_dir / f"{name}_measured")
+    save_figure(plot_measured_power(frame), out_dir / f"{name}_measured")
+    sources = measured[measured.experiment.isin(frame.experiment)]
+    return ["## Predicted against measured mill power", "", f"![measured]({name}_measured.png)", "",
+            frame.to_markdown(index=False, floatfmt=".3g"), "", "What was measured and what had to be assumed:", "",
+            *[f"- {m.experiment}, {m.condition}: {m.measured_as}; {m.source} ({m.year}, {m.location}), {m.url}. "
+              f"Assumed: {m.assumed}" for m in sources.itertuples()], ""]
+
+
 # The parts a study's report may name (study.report.sections), in the order it lists them.
 SECTIONS = {
     "design_table": lambda name, ok, spec, out: design_table(name, ok, spec),
@@ -330,6 +360,7 @@ SECTIONS = {
     "yield_calibration": yield_calibration_lines,
     "plant": plant_lines,
     "cheapest_mill": cheapest_mill_lines,
+    "measured_power": measured_power_lines,
 }
 
 

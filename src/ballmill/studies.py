@@ -25,7 +25,17 @@ import pandas as pd
 from .config import MM400_GEOMETRY, ConfigError, DrumConfig, SimConfig
 from .dem import SimulationError, SystemSpec
 from .dose import MEASURES, dose_j_per_kg, dose_rates, with_basis
-from .drum import DrumRun, ball_radii_as_run, charge_mass_kg, dem_key, drum_spec, drum_speed_rpm, simulate_drum
+from .drum import (
+    DrumRun,
+    ball_radii_as_run,
+    charge_fill,
+    charge_mass_kg,
+    dem_key,
+    drum_spec,
+    drum_speed_rpm,
+    mean_ball_diameter_m,
+    simulate_drum,
+)
 from .economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
 from .lab import conditions, jar_ball_mass_kg, mm400_spec, simulate_mm400, summarise, wall_interaction
 from .lab_dose import (
@@ -149,7 +159,13 @@ def plan_drum(s: Scenario) -> Plan:
     def execute(out_dir: Path) -> dict:
         run, dem_dir = run_drum(s, s.mill, out_dir)
         balls = charge_mass_kg(s.mill, s.materials[s.mill.ball_material].density_kg_per_m3)
-        return drum_record(run, dem_dir) | with_basis(run_dose(run, balls, s), "balls")
+        wall = wall_interaction(s.interactions, s.mill)
+        return (drum_record(run, dem_dir) | with_basis(run_dose(run, balls, s), "balls")
+                | {"experiment": s.study.experiment, "ball_mass_kg": balls, "wall_restitution": wall.restitution,
+                   "wall_friction": wall.static_friction, "liner": s.mill.liner.kind,
+                   "bond_rowland_power_w": bond_rowland_power_w(
+                       s.mill.inner_diameter_m, balls, charge_fill(s.mill), run.summary["speed_rpm"]
+                       / run.summary["critical_speed_rpm"], mean_ball_diameter_m(s.mill))})
 
     return Plan({}, execute)
 
