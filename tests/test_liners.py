@@ -9,7 +9,7 @@ from helpers import MATERIALS, PAIRS, run
 from ballmill.config import BallSizeConfig, ConfigError, DrumConfig, LinerConfig, SimConfig, check_charge
 from ballmill.dem import Body, Interaction, Material, Motion, SystemSpec
 from ballmill.drum import AXIS, ball_radii, bed_ball_volume_m3, drum_spec, drum_speed_rpm, drum_walls
-from ballmill.liner import liner_mesh, liner_profile
+from ballmill.liner import liner_mesh, liner_profile, liner_size
 
 SOFT_STEEL = Material("steel", 7900.0, 77e7, 0.3)  # shear modulus 100x lower: fewer steps
 G = 9.81
@@ -119,3 +119,12 @@ def test_a_charge_by_count_and_mass_fraction_at_once_is_refused():
         check_charge("mill.charge", [BallSizeConfig(0.02, 10), BallSizeConfig(0.01, mass_fraction=0.5)])
     with pytest.raises(ConfigError, match="sum to 0.9"):
         check_charge("mill.charge", [BallSizeConfig(0.02, mass_fraction=0.4), BallSizeConfig(0.01, mass_fraction=0.5)])
+
+
+def test_lifters_sized_as_a_fraction_of_the_diameter_grow_with_the_mill():
+    liner = LinerConfig(kind="bars", count=12, height_to_diameter=0.04, top_width_to_height=1.5)
+    for d in (1.0, 3.0):
+        height, width = liner_size(liner, d)
+        assert (height, width) == pytest.approx((0.04 * d, 0.06 * d))
+        drum = DrumConfig(inner_diameter_m=d, inner_length_m=d, ball_radius_m=0.04, liner=liner)
+        assert np.hypot(*liner_profile(drum).T).min() == pytest.approx(math.hypot(0.46 * d, 0.03 * d))

@@ -92,3 +92,23 @@ def test_a_mill_without_a_set_speed_runs_at_its_fraction_of_critical():
     assert d.fraction_of_critical == pytest.approx(0.6)
     with pytest.raises(ConfigError, match="shape_rule=fraction_of_critical sizes the diameter from scaleup.speed_rpm"):
         design_mill(replace(ScaleupConfig(), speed_rpm=None, shape_rule="fraction_of_critical"))
+
+
+def test_a_graded_charge_scales_up_by_mass_fraction():
+    from ballmill.config import BallSizeConfig
+
+    cfg = ScaleupConfig(pet_feed_kg_per_h=1000.0, charge=[BallSizeConfig(0.1, mass_fraction=0.4),
+                                                          BallSizeConfig(0.16, mass_fraction=0.6)])
+    d = design_mill(cfg)
+    assert d.charge_diameters_m == (0.16, 0.1)  # largest first
+    masses = [n * 7900.0 * math.pi / 6 * size**3 for size, n in zip(d.charge_diameters_m, d.charge_counts)]
+    assert sum(masses) == pytest.approx(d.ball_mass_kg, rel=0.01)
+    assert masses[0] / sum(masses) == pytest.approx(0.6, abs=0.01)
+    assert d.ball_count == sum(d.charge_counts)
+    assert d.ball_radius_m == pytest.approx((0.6 * 0.16 + 0.4 * 0.1) / 2)  # mass-weighted mean
+    rec = d.as_record()
+    assert rec["charge_160mm_balls"] == d.charge_counts[0] and "charge_counts" not in rec
+    mono = design_mill(ScaleupConfig(pet_feed_kg_per_h=1000.0))
+    assert "charge_80mm_balls" not in mono.as_record() and mono.ball_radius_m == 0.08
+    with pytest.raises(ConfigError, match="mass_fraction"):
+        ScaleupConfig(charge=[BallSizeConfig(0.1, count=10)]).__post_init__()

@@ -184,6 +184,13 @@ class ScaleupConfig:
     shape_rule: str = field(default="length_to_diameter", metadata={"choices": ("length_to_diameter", "fraction_of_critical")})
     length_to_diameter: float = rng(1.5, 0.0, None, lo_open=True)
     fraction_of_critical: float = rng(0.7, 0.0, 1.5, lo_open=True)
+    charge: list[BallSizeConfig] = field(default_factory=list, metadata={
+        "doc": "graded charge by mass fraction (replaces ball_radius_m; the counts follow from the BPR)"})
+
+    def __post_init__(self):
+        check_charge("scaleup.charge", self.charge)
+        if self.charge and self.charge[0].count is not None:
+            raise ConfigError("scaleup.charge: give each size a mass_fraction; the counts follow from the BPR")
 
 
 @dataclass

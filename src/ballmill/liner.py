@@ -82,13 +82,18 @@ def liner_profile(drum: DrumConfig) -> np.ndarray:
     return np.array(points)
 
 
-def liner_mesh(drum: DrumConfig) -> Mesh:
-    """The profile swept along the axis (y from -L/2 to L/2): two triangles per profile edge."""
+def liner_mesh(drum: DrumConfig, closed: bool = False) -> Mesh:
+    """The profile swept along the axis (y from -L/2 to L/2): two triangles per profile edge;
+    `closed` adds the end walls as fans from the axis (the profile is star-shaped about it), for
+    programs that take the whole drum as one mesh."""
     profile = liner_profile(drum)
     n, half = len(profile), drum.inner_length_m / 2
     ring = np.column_stack([profile[:, 0], np.zeros(n), profile[:, 1]])
     vertices = np.vstack([ring + [0.0, -half, 0.0], ring + [0.0, half, 0.0]])
     i = np.arange(n)
     j = (i + 1) % n
-    faces = np.vstack([np.column_stack([i, j, j + n]), np.column_stack([i, j + n, i + n])])
-    return Mesh(vertices, faces)
+    faces = [np.column_stack([i, j, j + n]), np.column_stack([i, j + n, i + n])]
+    if closed:
+        vertices = np.vstack([vertices, [[0.0, -half, 0.0], [0.0, half, 0.0]]])
+        faces += [np.column_stack([np.full(n, 2 * n), j, i]), np.column_stack([np.full(n, 2 * n + 1), i + n, j + n])]
+    return Mesh(vertices, np.vstack(faces))

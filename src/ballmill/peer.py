@@ -26,6 +26,7 @@ from pathlib import Path
 from .config import ConfigError, DrumConfig, InteractionConfig, MaterialConfig
 from .dem import SystemSpec
 from .drum import drum_mesh, drum_speed_rpm
+from .liner import liner_mesh
 
 INPUT = """\
 atom_style granular
@@ -48,13 +49,17 @@ pair_style gran model hertz tangential history rolling_friction cdt
 pair_coeff * *
 timestep {dt_s}
 fix gravi all gravity 9.81 vector 0.0 0.0 -1.0
-fix drum all mesh/surface/stress file drum.stl type 1
+fix drum all mesh/surface/stress file drum.stl type 1 reference_point 0. 0. 0.
 fix walls all wall/gran model hertz tangential history rolling_friction cdt mesh n_meshes 1 meshes drum
 fix integr all nve/sphere
 thermo 100000
 run {settle_steps}
 fix spin all move/mesh mesh drum rotate origin 0. 0. 0. axis 0. 1. 0. period {period_s}
-run {rotate_steps}
+{torque_output}run {rotate_steps}
+"""
+# the drum's torque about its axis (N m) every `every` steps into torque.txt
+TORQUE_OUTPUT = """variable ty equal f_drum[5]
+fix tq all ave/time 1 {every} {every} v_ty file torque.txt
 """
 
 
@@ -69,19 +74,35 @@ def write_data(folder: Path, spec: SystemSpec, material: MaterialConfig) -> None
 
 
 def write_case(folder: Path, spec: SystemSpec, drum: DrumConfig, material: MaterialConfig, pair: InteractionConfig,
-               dt_s: float, settle_s: float, rotate_s: float, skin_m: float) -> None:
-    """balls.data, drum.stl and in.drum for LIGGGHTS in `folder`."""
+               dt_s: float, settle_s: float, rotate_s: float, skin_m: float, torque_every: int = 0) -> None:
+    """balls.data, drum.stl (the whole drum, lifters and ends, as one mesh) and in.drum for
+    LIGGGHTS in `folder`; with torque_every, the drum's torque every that many steps."""
     write_data(folder, spec, material)
     import trimesh
 
-    mesh = drum_mesh(drum)
+    mesh = drum_mesh(drum) if drum.liner.kind == "smooth" else liner_mesh(drum, closed=True)
     trimesh.Trimesh(mesh.vertices_m, mesh.faces).export(folder / "drum.stl", file_type="stl_ascii")
     youngs = 2 * material.shear_modulus_pa * (1 + material.poisson_ratio)
     (folder / "in.drum").write_text(INPUT.format(
         skin_m=skin_m, youngs_pa=youngs, poisson=material.poisson_ratio, restitution=pair.restitution,
         friction=pair.static_friction, rolling=pair.rolling_friction, dt_s=dt_s,
         settle_steps=round(settle_s / dt_s), rotate_steps=round(rotate_s / dt_s),
-        period_s=60.0 / drum_speed_rpm(drum)))
+        period_s=60.0 / drum_speed_rpm(drum),
+        torque_output=TORQUE_OUTPUT.format(every=torque_every) if torque_every else ""))
+
+
+def liggghts_torque(spec: SystemSpec, drum: DrumConfig, material: MaterialConfig, pair: InteractionConfig,
+                    dt_s: float, settle_s: float, rotate_s: float, skin_m: float, every: int, ranks: int = 2):
+    """The same drum run by LIGGGHTS: its torque about the axis (t_s, torque_axis_nm) while turning."""
+    import numpy as np
+    import pandas as pd
+
+    require_peers(("liggghts",))
+    with tempfile.TemporaryDirectory() as tmp:
+        write_case(Path(tmp), spec, drum, material, pair, dt_s, settle_s, rotate_s, skin_m, every)
+        run_peer("liggghts", Path(tmp), ranks)
+        steps, torque = np.loadtxt(Path(tmp) / "torque.txt", comments="#", unpack=True)
+    return pd.DataFrame({"t_s": steps * dt_s, "torque_axis_nm": torque})
 
 
 LAMMPS_INPUT = """\

@@ -56,9 +56,14 @@ class MillDesign:
     speed_rpm: float
     critical_speed_rpm: float
     fraction_of_critical: float
+    charge_diameters_m: tuple[float, ...] = ()  # a graded charge: its sizes and counts
+    charge_counts: tuple[int, ...] = ()
 
     def as_record(self) -> dict:
-        return asdict(self)
+        """Flat record; a graded charge as one column per size (charge_<d mm>mm_balls)."""
+        rec = asdict(self)
+        sizes = zip(rec.pop("charge_diameters_m"), rec.pop("charge_counts"))
+        return rec | {f"charge_{1000 * d:g}mm_balls": n for d, n in sizes}
 
 
 def design_mill(cfg: ScaleupConfig) -> MillDesign:
@@ -74,9 +79,13 @@ def design_mill(cfg: ScaleupConfig) -> MillDesign:
         naoh = cfg.naoh_to_stoichiometric * stoichiometric_naoh_kg_per_h(pet)
     holdup = (pet + naoh) * cfg.residence_time_min / 60.0
     ball_mass = cfg.bpr * holdup
-    one_ball = cfg.ball_density_kg_per_m3 * 4 / 3 * math.pi * cfg.ball_radius_m**3
     volume = ball_mass / cfg.ball_density_kg_per_m3 / (1 - cfg.bed_porosity) / cfg.fill_fraction
-    d_ball = 2 * cfg.ball_radius_m
+    sizes = sorted(cfg.charge, key=lambda c: -c.diameter_m)
+    diameters = tuple(c.diameter_m for c in sizes) or (2 * cfg.ball_radius_m,)
+    fractions = [c.mass_fraction for c in sizes] or [1.0]
+    counts = tuple(max(1, round(f * ball_mass / (cfg.ball_density_kg_per_m3 * math.pi / 6 * d**3)))
+                   for f, d in zip(fractions, diameters))
+    d_ball = sum(f * d for f, d in zip(fractions, diameters))  # mass-weighted mean: the critical speed's d
     if cfg.shape_rule == "length_to_diameter":
         diameter = (4 * volume / (math.pi * cfg.length_to_diameter)) ** (1 / 3)
     elif cfg.speed_rpm is None:
@@ -85,14 +94,16 @@ def design_mill(cfg: ScaleupConfig) -> MillDesign:
     else:
         diameter = d_ball + (42.3 * cfg.fraction_of_critical / cfg.speed_rpm) ** 2
     length = volume / (math.pi / 4 * diameter**2)
-    if d_ball >= min(diameter, length) / 2:
-        raise ConfigError(f"scaleup.ball_radius_m={cfg.ball_radius_m}: balls of {d_ball:g} m do not fit a mill of "
+    if diameters[0] >= min(diameter, length) / 2:
+        name = "charge" if cfg.charge else f"ball_radius_m={cfg.ball_radius_m}"
+        raise ConfigError(f"scaleup.{name}: balls of {diameters[0]:g} m do not fit a mill of "
                           f"D {diameter:.3g} m x L {length:.3g} m (at most a quarter of the smaller side)")
     n_crit = critical_speed_rpm(diameter, d_ball)
     speed = cfg.speed_rpm if cfg.speed_rpm is not None else cfg.fraction_of_critical * n_crit
     return MillDesign(
         pet_feed_kg_per_h=pet, naoh_feed_kg_per_h=naoh, residence_time_min=cfg.residence_time_min, holdup_kg=holdup,
-        ball_mass_kg=ball_mass, ball_count=max(1, round(ball_mass / one_ball)), ball_radius_m=cfg.ball_radius_m,
+        ball_mass_kg=ball_mass, ball_count=sum(counts), ball_radius_m=d_ball / 2,
         mill_volume_m3=volume, diameter_m=diameter, length_m=length, speed_rpm=speed,
         critical_speed_rpm=n_crit, fraction_of_critical=speed / n_crit,
+        charge_diameters_m=diameters if cfg.charge else (), charge_counts=counts if cfg.charge else (),
     )

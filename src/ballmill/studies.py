@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .config import MM400_GEOMETRY, ConfigError, DrumConfig, SimConfig
+from .config import MM400_GEOMETRY, BallSizeConfig, ConfigError, DrumConfig, SimConfig
 from .dem import SimulationError, SystemSpec
 from .dose import MEASURES, dose_j_per_kg, dose_rates, with_basis
 from .drum import (
@@ -171,8 +171,12 @@ def plan_drum(s: Scenario) -> Plan:
 
 
 def mill_drum(s: Scenario, design) -> DrumConfig:
+    """The designed mill as a drum: its size, speed and charge (graded when the scale-up's is), the
+    mill group's liner (lifters sized by height_to_diameter grow with it)."""
+    charge = [BallSizeConfig(d, n) for d, n in zip(design.charge_diameters_m, design.charge_counts)]
     return replace(s.mill, inner_diameter_m=design.diameter_m, inner_length_m=design.length_m,
-                   ball_radius_m=design.ball_radius_m, ball_count=design.ball_count, speed_rpm=design.speed_rpm)
+                   ball_radius_m=design.ball_radius_m, ball_count=design.ball_count, speed_rpm=design.speed_rpm,
+                   charge=charge)
 
 
 def pet_holdup_kg(design) -> float:

@@ -8,6 +8,8 @@ n + w for analytic wall w, n + n_wall + t for triangle t.  The reaction on each 
 accumulated per (particle, body) and summed in particle order when drained.
 """
 
+import math
+
 import numpy as np
 import taichi as ti
 
@@ -17,6 +19,8 @@ from .monitor import WALL_CONTACTS
 from .motion import unit
 
 MESH_CELLS_PER_SIDE = 64  # a mesh's bounding box is binned into at most this many cells per side
+EDGE_SLOTS = 4  # edge/vertex contacts of one ball with one mesh, in distinct directions
+EDGE_SAME = math.cos(math.radians(20.0))  # normals closer than 20 deg: the same contact direction
 
 
 @ti.data_oriented
@@ -200,10 +204,12 @@ class Walls:
 
     @ti.func
     def mesh_contacts(self, i, m, old, new, cnt, k):
-        """Face contacts with every triangle touched; if none, the deepest edge/vertex contact.
-
-        One pass over the triangles of the particle's cell plus one extra iteration that
-        resolves the deepest edge/vertex contact, so the contact code is compiled once.
+        """Face contacts with every triangle touched, then the edge/vertex contacts that are not a
+        face contact seen again: one per direction (the deepest of those within EDGE_SAME of
+        each other, as the two triangles of one edge give), none within EDGE_SAME of a face
+        contact's normal (a smooth mesh's facet edges), so a ball in the corner of a shell facet and
+        a lifter's convex edge feels both.  The candidate edges are resolved by EDGE_SLOTS more
+        iterations of the triangle loop, so the contact code is compiled once.
         """
         f_i = ti.Vector([0.0, 0.0, 0.0])
         t_i = ti.Vector([0.0, 0.0, 0.0])
@@ -215,22 +221,48 @@ class Walls:
         dims = self.m_dims[m]
         if 0 <= cell[0] < dims[0] and 0 <= cell[1] < dims[1] and 0 <= cell[2] < dims[2]:
             c = self.m_cell0[m] + (cell[0] * dims[1] + cell[1]) * dims[2] + cell[2]
-            faces, best_t, best_delta = 0, -1, 0.0
+            faces = 0
+            face_n = ti.Matrix([[0.0] * 3 for _ in range(EDGE_SLOTS)])  # normals of the first face contacts
+            edge_t = ti.Vector([-1] * EDGE_SLOTS)  # candidate edge/vertex contacts: triangle, depth, normal
+            edge_d = ti.Vector([0.0] * EDGE_SLOTS)
+            edge_n = ti.Matrix([[0.0] * 3 for _ in range(EDGE_SLOTS)])
             q_end = self.mc_start[c + 1]
-            for q in range(self.mc_start[c], q_end + 1):
-                t = best_t
+            for q in range(self.mc_start[c], q_end + EDGE_SLOTS):
+                t = -1
                 if q < q_end:
                     t = self.mc_tris[q]
-                if t >= 0 and (q < q_end or faces == 0):
+                else:
+                    t = edge_t[q - q_end]
+                if t >= 0:
                     p, face = closest_point_on_triangle(xb, self.t_corner[t, 0], self.t_corner[t, 1], self.t_corner[t, 2])
                     d = p - xb
                     dist = d.norm()
                     delta = rad - dist
-                    touch = delta > 0.0 and dist > 0.0 and (face == 1 or q == q_end)
-                    if delta > best_delta and face == 0 and q < q_end:
-                        best_t, best_delta = t, delta
+                    touch = False
+                    if delta > 0.0 and dist > 0.0:
+                        nrm = d / dist
+                        if q < q_end and face == 1:
+                            touch = True
+                            if faces < EDGE_SLOTS:
+                                for a in ti.static(range(3)):
+                                    face_n[faces, a] = nrm[a]
+                            faces += 1
+                        elif q < q_end:
+                            slot_e = -1  # the candidate of this direction, else a free one
+                            for e in range(EDGE_SLOTS):
+                                same = nrm.dot(ti.Vector([edge_n[e, 0], edge_n[e, 1], edge_n[e, 2]])) > EDGE_SAME
+                                if slot_e < 0 and (edge_t[e] < 0 or same):
+                                    slot_e = e
+                            if slot_e >= 0 and (edge_t[slot_e] < 0 or delta > edge_d[slot_e]):
+                                edge_t[slot_e], edge_d[slot_e] = t, delta
+                                for a in ti.static(range(3)):
+                                    edge_n[slot_e, a] = nrm[a]
+                        else:
+                            touch = True
+                            for f in range(ti.min(faces, EDGE_SLOTS)):
+                                if nrm.dot(ti.Vector([face_n[f, 0], face_n[f, 1], face_n[f, 2]])) > EDGE_SAME:
+                                    touch = False
                     if touch:
-                        faces += face
                         key = self.n + self.n_wall + t
                         slot = self.mesh_slot(i, old, key, m, xb)
                         df, dt_, de, cnt = self.contact(i, key, b, self.t_mat[t], delta, d / dist, p, old, new, cnt, k,

@@ -1,0 +1,36 @@
+"""A lifter drum against LIGGGHTS 3.8 (the same balls, mesh, materials and time step), torque
+within 5 % at two speeds.  Needs `liggghts` (Debian: apt-get install liggghts) and takes about
+five minutes: it runs when BALLMILL_PEER_TESTS=1."""
+
+import os
+import shutil
+
+import pytest
+from helpers import PAIRS
+
+from ballmill.config import DrumConfig, LinerConfig, MaterialConfig, SimConfig
+from ballmill.drum import drum_spec, simulate_drum
+from ballmill.peer import liggghts_torque
+from ballmill.scenario import time_step_s
+
+pytestmark = pytest.mark.skipif(os.environ.get("BALLMILL_PEER_TESTS") != "1" or shutil.which("liggghts") is None,
+                                reason="LIGGGHTS comparison: set BALLMILL_PEER_TESTS=1 with liggghts installed")
+MATERIALS = {"steel": MaterialConfig(shear_modulus_pa=77e7)}  # steel 100x softer, for both programs
+SIM = SimConfig(settle_s=0.5, duration_s=2.0, steady_after_s=0.5, sample_every_s=0.01,
+                checkpoint_every_s=None)
+
+
+@pytest.mark.parametrize("fraction_of_critical", [0.5, 0.8])
+def test_lifter_drum_torque_matches_liggghts(fraction_of_critical, tmp_path):
+    drum = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.006, fill_fraction=0.3,
+                      fraction_of_critical=fraction_of_critical,
+                      liner=LinerConfig(kind="bars", count=8, height_m=0.02, top_width_m=0.015, face_angle_deg=15))
+    ours = simulate_drum(drum, MATERIALS, PAIRS, SIM, tmp_path).summary
+    spec = drum_spec(drum, MATERIALS, PAIRS, SIM)
+    dt = time_step_s(spec, SIM)
+    theirs = liggghts_torque(spec, drum, MATERIALS["steel"], PAIRS["steel-steel"], dt, SIM.settle_s, SIM.duration_s,
+                             SIM.neighbour_skin * 0.006, every=round(SIM.sample_every_s / dt))
+    theirs = theirs[theirs.t_s > SIM.settle_s + SIM.steady_after_s].torque_axis_nm.mean()
+    print(f"lifter drum at {fraction_of_critical:.0%} of critical: ours {ours['torque_axis_nm']:.4g} N m, "
+          f"LIGGGHTS {theirs:.4g} N m, ratio {ours['torque_axis_nm'] / theirs:.4f}")
+    assert ours["torque_axis_nm"] == pytest.approx(theirs, rel=0.05)
