@@ -103,7 +103,7 @@ class LinerConfig:
     first_angle_deg: float = rng(0.0, None, None, doc="angular position of the first bar or wave crest")
 
     def __post_init__(self):
-        if self.kind == "smooth":
+        if self.kind not in ("bars", "wave"):  # smooth, or a wrong name the range check reports
             return
         if self.count < 1:
             raise ConfigError(f"liner.count={self.count}: a {self.kind} liner needs at least 1 bar or wave")
