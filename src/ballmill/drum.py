@@ -95,14 +95,16 @@ def ball_radii(drum: DrumConfig) -> np.ndarray:
     by mass fraction holds the ball volume of `fill_fraction` of the drum at `bed_porosity`,
     split by mass (one density), each size's count rounded."""
     if not drum.charge:
-        return np.full(ball_count_of_size(drum, drum.ball_radius_m), drum.ball_radius_m)
+        return np.full(ball_count(drum), drum.ball_radius_m)
     sizes = sorted(drum.charge, key=lambda c: -c.diameter_m)
+    return np.repeat([c.diameter_m / 2 for c in sizes], size_counts(drum, sizes))
+
+
+def size_counts(drum: DrumConfig, sizes) -> list[int]:
+    """Balls of each size of a graded charge: as given, or from the mass fractions."""
     if sizes[0].count is not None:
-        counts = [c.count for c in sizes]
-    else:
-        volume = bed_ball_volume_m3(drum)
-        counts = [round(c.mass_fraction * volume / (math.pi / 6 * c.diameter_m**3)) for c in sizes]
-    return np.repeat([c.diameter_m / 2 for c in sizes], counts)
+        return [c.count for c in sizes]
+    return [round(c.mass_fraction * bed_ball_volume_m3(drum) / (math.pi / 6 * c.diameter_m**3)) for c in sizes]
 
 
 def ball_radii_as_run(drum: DrumConfig, seed: int) -> np.ndarray:
@@ -116,15 +118,14 @@ def bed_ball_volume_m3(drum: DrumConfig) -> float:
     return drum.fill_fraction * math.pi / 4 * drum.inner_diameter_m**2 * drum.inner_length_m * (1 - drum.bed_porosity)
 
 
-def ball_count_of_size(drum: DrumConfig, radius_m: float) -> int:
-    """Balls of one size in the configured bed (or the given count)."""
+def ball_count(drum: DrumConfig) -> int:
+    """Balls in the drum: a graded charge's, the given count, or those of one size filling the bed
+    (counted, not listed: the memory check comes before any array)."""
+    if drum.charge:
+        return sum(size_counts(drum, drum.charge))
     if drum.ball_count is not None:
         return drum.ball_count
-    return max(1, round(bed_ball_volume_m3(drum) / (4 / 3 * math.pi * radius_m**3)))
-
-
-def ball_count(drum: DrumConfig) -> int:
-    return len(ball_radii(drum))
+    return max(1, round(bed_ball_volume_m3(drum) / (4 / 3 * math.pi * drum.ball_radius_m**3)))
 
 
 def charge_mass_kg(drum: DrumConfig, density_kg_per_m3: float) -> float:
@@ -137,6 +138,8 @@ def largest_radius_m(drum: DrumConfig) -> float:
 
 def mean_ball_diameter_m(drum: DrumConfig) -> float:
     """Mass-weighted mean ball diameter (m): the d of the critical speed for a graded charge."""
+    if not drum.charge:
+        return 2 * drum.ball_radius_m
     r = ball_radii(drum)
     return float(2 * (r**4).sum() / (r**3).sum())
 
