@@ -49,6 +49,19 @@ def test_overlapping_or_too_high_bars_are_refused():
         liner_profile(bars(height=0.12))
 
 
+def one_ball_at_the_bottom(drum):
+    """The drum turning from t = 0 with one ball resting at its bottom (no rolling friction): (spec, omega)."""
+    big_r, r = drum.inner_diameter_m / 2, drum.ball_radius_m
+    omega = drum_speed_rpm(drum) * 2 * math.pi / 60
+    spec = SystemSpec(
+        materials={"steel": SOFT_STEEL}, interactions=[{("steel", "steel"): Interaction(0.5, 0.5, 0.0)}],
+        position_m=np.array([[0.0, 0.0, -(big_r - r - 1e-4)]]), radius_m=np.array([r]), material=np.zeros(1),
+        bodies=[Body("drum", "steel", drum_walls(drum), (Motion(axis=AXIS, angular_velocity_rad_per_s=omega),))],
+        domain_lo_m=(-0.3, -0.1, -0.3), domain_hi_m=(0.3, 0.1, 0.3), gravity_m_per_s2=(0, 0, -G),
+    )
+    return spec, omega
+
+
 def rotate(xz, angle):
     """Body-frame (x, z) vectors to world after the drum turned `angle` about +y (clockwise seen with z up)."""
     c, s = np.cos(angle), np.sin(angle)
@@ -64,13 +77,7 @@ def test_a_ball_on_a_lifter_is_carried_until_the_face_levels_in_the_effective_gr
     lifter_at = -70.0  # deg in the (x, z) plane; the ball starts at the bottom, -90 deg, ahead of it
     drum = bars(face=face_angle, first=lifter_at)
     big_r, r = drum.inner_diameter_m / 2, drum.ball_radius_m
-    omega = drum_speed_rpm(drum) * 2 * math.pi / 60
-    spec = SystemSpec(
-        materials={"steel": SOFT_STEEL}, interactions=[{("steel", "steel"): Interaction(0.5, 0.5, 0.0)}],
-        position_m=np.array([[0.0, 0.0, -(big_r - r - 1e-4)]]), radius_m=np.array([r]), material=np.zeros(1),
-        bodies=[Body("drum", "steel", drum_walls(drum), (Motion(axis=AXIS, angular_velocity_rad_per_s=omega),))],
-        domain_lo_m=(-0.3, -0.1, -0.3), domain_hi_m=(0.3, 0.1, 0.3), gravity_m_per_s2=(0, 0, -G),
-    )
+    spec, omega = one_ball_at_the_bottom(drum)
     _, results = run(spec, 2e-5, 2.9, sample_every=0.002, trajectory_every=1)
     tr = results.trajectories.sort_values("t_s")
     phi = omega * tr.t_s.to_numpy()
@@ -128,3 +135,13 @@ def test_lifters_sized_as_a_fraction_of_the_diameter_grow_with_the_mill():
         assert (height, width) == pytest.approx((0.04 * d, 0.06 * d))
         drum = DrumConfig(inner_diameter_m=d, inner_length_m=d, ball_radius_m=0.04, liner=liner)
         assert np.hypot(*liner_profile(drum).T).min() == pytest.approx(math.hypot(0.46 * d, 0.03 * d))
+
+
+def test_a_lifter_lower_than_the_ball_carries_it_by_its_edge():
+    """A 6 mm lifter meets a 10 mm ball at its convex top edge while the ball touches a shell facet:
+    both contacts act, so the ball is carried up, not sunk into the edge."""
+    drum = bars(height=0.006, width=0.01, first=-75.0)
+    spec, _ = one_ball_at_the_bottom(drum)
+    _, results = run(spec, 2e-5, 1.5, sample_every=0.01, trajectory_every=1, max_overlap_fraction=0.02)
+    end = results.trajectories.sort_values("t_s").iloc[-1]
+    assert math.degrees(math.atan2(end.x_m, -end.z_m)) < -25.0  # carried up the rising side (x < 0)

@@ -4,7 +4,7 @@ not depend on how steps are launched or on the number of threads."""
 import numpy as np
 import pytest
 
-from ballmill.config import DrumConfig, InteractionConfig, MaterialConfig, SimConfig
+from ballmill.config import BallSizeConfig, DrumConfig, InteractionConfig, LinerConfig, MaterialConfig, SimConfig
 from ballmill.dem import Engine, EngineOptions, init_taichi
 from ballmill.drum import drum_spec
 from ballmill.scenario import time_step_s
@@ -13,10 +13,10 @@ DRUM = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.01) 
 SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.15)  # dt 2.2e-5 s; the drum turns from 0.15 s
 
 
-def simulate(threads=2, launches=1, **options):
+def simulate(threads=2, launches=1, drum=DRUM, **options):
     """10,000 steps (0.22 s) of a settling, then turning, charge; what the test needs, as numpy
     (each call restarts Taichi, so no engine outlives it)."""
-    spec = drum_spec(DRUM, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, SIM)
+    spec = drum_spec(drum, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, SIM)
     init_taichi("cpu", "f64", threads)
     engine = Engine(spec, EngineOptions(dt_s=time_step_s(spec, SIM), **options))
     for _ in range(launches):
@@ -61,3 +61,14 @@ def test_the_gpu_binning_path_gives_the_cpu_paths_contacts_and_bits(reference):
     assert gpu_path["rebuilds"] == reference["rebuilds"]
     for key in ("x", "v", "w"):
         assert np.array_equal(gpu_path[key], reference[key]), key
+
+
+def test_a_bidisperse_lifter_drum_gives_identical_bits_for_any_threads_launches_and_skin():
+    drum = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, charge=[BallSizeConfig(0.024, 80),
+                                                                        BallSizeConfig(0.016, 150)],
+                      liner=LinerConfig(kind="bars", count=6, height_m=0.02, top_width_m=0.015, face_angle_deg=15))
+    reference = simulate(serial=False, drum=drum)
+    for options in ({"threads": 1, "launches": 4, "serial": True}, {"serial": False, "skin_fraction": 0.05}):
+        other = simulate(drum=drum, **options)
+        for key in ("x", "v", "w"):
+            assert np.array_equal(other[key], reference[key]), (options, key)
