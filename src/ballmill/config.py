@@ -151,7 +151,7 @@ class DrumConfig:
     fraction_of_critical: float = rng(0.7, 0.0, 1.5, lo_open=True)
     geometry: str = field(default="analytic", metadata={"choices": ("analytic", "stl")})
     stl_path: str | None = None
-    stl_segments: int = rng(128, 8, None, doc="facets around a generated STL drum")
+    stl_segments: int = rng(128, 8, None, doc="facets around a generated drum mesh (STL drum, lined shell)")
     ball_material: str = "steel"
     wall_material: str = "steel"
     liner: LinerConfig = field(default_factory=LinerConfig)
