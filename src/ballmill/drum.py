@@ -280,10 +280,13 @@ def charge_fill(drum: DrumConfig) -> float:
 def drum_charge_shape(drum: DrumConfig, trajectories, after_s: float, radii: np.ndarray, masses: np.ndarray,
                       density_kg_per_m3: float) -> dict:
     """Toe, shoulder, regime and torque-arm power of the charge over the averaging window (from
-    the recorded ball states), beside Morrell's empirical angles and C-model power."""
-    window = trajectories[trajectories.t_s > after_s]
-    if not len(window):
+    at most MAX_SNAPSHOTS of the recorded ball states), beside Morrell's empirical angles and
+    C-model power."""
+    times = np.unique(trajectories.t_s[trajectories.t_s > after_s])
+    if not len(times):
         return {}
+    times = times[np.linspace(0, len(times) - 1, min(len(times), MAX_SNAPSHOTS)).round().astype(int)]
+    window = trajectories[trajectories.t_s.isin(times)]
     snapshots = [g.sort_values("particle")[["x_m", "y_m", "z_m"]].to_numpy() for _, g in window.groupby("t_s")]
     lifter = liner_size(drum.liner, drum.inner_diameter_m)[0] if drum.liner.kind != "smooth" else 0.0
     speed = drum_speed_rpm(drum)
