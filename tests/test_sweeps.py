@@ -118,15 +118,18 @@ def test_an_interrupted_sweep_resumes_with_exactly_its_unfinished_jobs(tmp_path)
     args = [sys.executable, "-c", "from ballmill.cli import main; main()", "run", "+sweep=fig3b", "sim=ci",
             "sim.settle_s=0.1", "sim.duration_s=0.4", "sim.steady_after_s=0.1", f"hydra.sweep.dir={tmp_path / 's'}",
             f"cache_dir={tmp_path / 'cache'}"]
-    proc = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
+    log_file = open(tmp_path / "interrupted.log", "w")  # noqa: SIM115 (closed below, after the wait)
+    proc = subprocess.Popen(args, cwd=tmp_path, stdout=log_file, stderr=subprocess.STDOUT, start_new_session=True)
     deadline = time.time() + 600
     while not list((tmp_path / "s").glob("*/record.json")) and time.time() < deadline:
         time.sleep(0.2)
     os.killpg(proc.pid, signal.SIGINT)
-    assert proc.wait(timeout=120) != 0
+    status = proc.wait(timeout=120)
+    log_file.close()
     finished = {p.parent.name for p in (tmp_path / "s").glob("*/record.json")}
-    assert 1 <= len(finished) < 7
+    tail = (tmp_path / "interrupted.log").read_text()[-3000:]
+    assert status != 0, f"the interrupted sweep exited 0 with {len(finished)} records:\n{tail}"
+    assert 1 <= len(finished) < 7, tail
     for name in finished:  # whole records only
         assert json.loads((tmp_path / "s" / name / "record.json").read_text())["status"] == "ok"
     again = subprocess.run(args, cwd=tmp_path, capture_output=True, text=True, timeout=900, check=False)
