@@ -115,7 +115,9 @@ def test_a_bad_value_in_any_job_refuses_the_whole_sweep_before_it_starts(tmp_pat
 def test_an_interrupted_sweep_resumes_with_exactly_its_unfinished_jobs(tmp_path):
     """Ctrl-C (SIGINT to the sweep's process group) mid-sweep leaves only whole records; running
     the same command again skips the finished jobs and runs the rest."""
-    args = [sys.executable, "-c", "from ballmill.cli import main; main()", "run", "+sweep=fig3b", "sim=ci",
+    # Ctrl-C's default action even when the tests run in the background (a shell then ignores SIGINT)
+    start = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler); from ballmill.cli import main; main()"
+    args = [sys.executable, "-c", start, "run", "+sweep=fig3b", "sim=ci",
             "sim.settle_s=0.1", "sim.duration_s=0.4", "sim.steady_after_s=0.1", f"hydra.sweep.dir={tmp_path / 's'}",
             f"cache_dir={tmp_path / 'cache'}"]
     log_file = open(tmp_path / "interrupted.log", "w")  # noqa: SIM115 (closed below, after the wait)
