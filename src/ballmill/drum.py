@@ -158,8 +158,7 @@ def lattice_sites(drum: DrumConfig, cell_m: float, basis: np.ndarray) -> np.ndar
     """Sites of a lattice (cubic cells of cell_m, `basis` points per cell in cell units) inside the
     drum with the wall clearance of its largest ball (and of the lifters' height)."""
     r, half = largest_radius_m(drum), drum.inner_length_m / 2
-    big_r = drum.inner_diameter_m / 2 - (liner_size(drum.liner, drum.inner_diameter_m)[0]
-                                         if drum.liner.kind != "smooth" else 0.0)
+    big_r = drum.inner_diameter_m / 2 - liner_size(drum.liner, drum.inner_diameter_m)[0]
     gap = WALL_CLEARANCE * r
     xs = np.arange(-big_r + gap, big_r - r, cell_m)
     ys = np.arange(-half + gap, half - r, cell_m)
@@ -288,9 +287,8 @@ def drum_charge_shape(drum: DrumConfig, trajectories, after_s: float, radii: np.
     times = times[np.linspace(0, len(times) - 1, min(len(times), MAX_SNAPSHOTS)).round().astype(int)]
     window = trajectories[trajectories.t_s.isin(times)]
     snapshots = [g.sort_values("particle")[["x_m", "y_m", "z_m"]].to_numpy() for _, g in window.groupby("t_s")]
-    lifter = liner_size(drum.liner, drum.inner_diameter_m)[0] if drum.liner.kind != "smooth" else 0.0
     speed = drum_speed_rpm(drum)
-    shape = charge_shape(snapshots, radii, drum.inner_diameter_m / 2, lifter)
+    shape = charge_shape(snapshots, radii, drum.inner_diameter_m / 2, liner_size(drum.liner, drum.inner_diameter_m)[0])
     fill = charge_fill(drum)
     toe, shoulder = morrell_toe_shoulder_deg(fill, speed / critical_speed_of(drum))
     return {**{f"charge_{k}": v for k, v in shape.items()},

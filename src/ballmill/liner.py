@@ -20,7 +20,10 @@ from .dem import Mesh
 
 
 def liner_size(liner: LinerConfig, diameter_m: float) -> tuple[float, float]:
-    """(height, top width) of the bars or waves in metres (top width 0 for waves)."""
+    """(height, top width) of the bars or waves in metres (top width 0 for waves; both 0 for a
+    smooth shell)."""
+    if liner.kind == "smooth":
+        return 0.0, 0.0
     height = liner.height_m if liner.height_m is not None else liner.height_to_diameter * diameter_m
     if liner.kind != "bars":
         return height, 0.0
