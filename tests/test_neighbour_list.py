@@ -1,5 +1,6 @@
 """The Verlet list: complete (every touching pair found), skin-independent, and results that do
-not depend on how steps are launched or on the number of threads."""
+not depend on how steps are launched (a launch a step, whole steps serially, or a team of
+threads) or on the number of threads."""
 
 import numpy as np
 import pytest
@@ -27,7 +28,7 @@ def simulate(threads=2, launches=1, drum=DRUM, **options):
 
 @pytest.fixture(scope="module")
 def reference():
-    return simulate(threads=2, serial=False)
+    return simulate(threads=2, launch="parallel")
 
 
 def test_every_touching_pair_is_in_the_list_and_in_contact(reference):
@@ -39,24 +40,25 @@ def test_every_touching_pair_is_in_the_list_and_in_contact(reference):
 
 
 def test_small_and_large_skin_give_identical_trajectories(reference):
-    small = simulate(serial=False, skin_fraction=0.05)
-    large = simulate(serial=False, skin_fraction=1.0)
+    small = simulate(launch="team", skin_fraction=0.05)
+    large = simulate(launch="parallel", skin_fraction=1.0)
     assert small["rebuilds"] > 3 * large["rebuilds"]  # the skin did change how often the list was built
     for other in (small, large):  # partners are summed in id order, so not even round-off differs
         for key in ("x", "v", "w"):
             assert np.array_equal(other[key], reference[key]), key
 
 
-def test_serial_and_parallel_launches_and_thread_counts_give_identical_bits(reference):
-    for threads, serial in ((1, False), (1, True), (2, True)):
-        other = simulate(threads=threads, launches=4, serial=serial)  # serial: 2,500 steps per launch
+def test_every_launch_and_thread_count_gives_identical_bits(reference):
+    for threads, launch in ((1, "parallel"), (1, "serial"), (2, "serial"), (1, "team"), (2, "team")):
+        other = simulate(threads=threads, launches=4, launch=launch)  # serial, team: 2,500 steps per launch
         for key in ("x", "v", "w"):
-            assert np.array_equal(other[key], reference[key]), (threads, serial, key)
+            assert np.array_equal(other[key], reference[key]), (threads, launch, key)
+        assert other["rebuilds"] == reference["rebuilds"], (threads, launch)
 
 
 def test_the_gpu_binning_path_gives_the_cpu_paths_contacts_and_bits(reference):
     """Parallel binning with a per-cell sort (what CUDA runs), here on the CPU backend."""
-    gpu_path = simulate(serial=False, parallel_binning=True)
+    gpu_path = simulate(launch="parallel", parallel_binning=True)
     assert gpu_path["contact_pairs"] == reference["contact_pairs"]
     assert gpu_path["rebuilds"] == reference["rebuilds"]
     for key in ("x", "v", "w"):
@@ -67,8 +69,8 @@ def test_a_bidisperse_lifter_drum_gives_identical_bits_for_any_threads_launches_
     drum = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, charge=[BallSizeConfig(0.024, 80),
                                                                         BallSizeConfig(0.016, 150)],
                       liner=LinerConfig(kind="bars", count=6, height_m=0.02, top_width_m=0.015, face_angle_deg=15))
-    reference = simulate(serial=False, drum=drum)
-    for options in ({"threads": 1, "launches": 4, "serial": True}, {"serial": False, "skin_fraction": 0.05}):
+    reference = simulate(launch="parallel", drum=drum)
+    for options in ({"threads": 1, "launches": 4, "launch": "serial"}, {"launch": "team", "skin_fraction": 0.05}):
         other = simulate(drum=drum, **options)
         for key in ("x", "v", "w"):
             assert np.array_equal(other[key], reference[key]), (options, key)

@@ -66,7 +66,7 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
         peers |= {f"ratio_to_{k}": rate / v for k, v in list(peers.items())}
     return {
         "case": case, "balls": spec.n_particles, "arch": arch, "threads": threads or "all", "precision": precision,
-        "mode": "serial" if engine.serial else "parallel", "dt_s": engine.dt, "skin_fraction": skin,
+        "launch": engine.launch, "dt_s": engine.dt, "skin_fraction": skin,
         "particle_steps_per_s": rate, "steps_per_rebuild": steps / max(builds, 1),
         "contacts_per_particle": contacts, "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "power_w": power, "power_se_w": se, **{f"share_{k.replace(' ', '_')}": v / total for k, v in phases.items()},

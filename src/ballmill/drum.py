@@ -356,7 +356,7 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
     log.info("drum DEM: %d balls, dt = %.3g s (%.0f %% of Rayleigh), %s neighbour search, %s steps; %.3g "
              "particle-steps to go (about %.2g min at %.0e particle-steps/s)", spec.n_particles, dt,
              100 * dt / spec.rayleigh_timestep_s(), "grid" if engine.use_grid else "all-pairs",
-             "serial" if engine.serial else "parallel", steps * spec.n_particles,
+             engine.launch, steps * spec.n_particles,
              steps * spec.n_particles / TYPICAL_RATE / 60, TYPICAL_RATE)
     checkpoint = Checkpoint(out_dir / "checkpoint.npz", sim.checkpoint_every_s, key) if sim.checkpoint_every_s else None
     after = sim.settle_s + sim.steady_after_s

@@ -140,6 +140,6 @@ def engine_options(sim: SimConfig, dt_s: float) -> EngineOptions:
         dt_s=dt_s, max_contacts_per_particle=sim.max_contacts_per_particle, event_capacity=sim.event_capacity,
         max_overlap_fraction=sim.max_overlap_fraction, skin_fraction=sim.neighbour_skin,
         grid={"auto": None, "grid": True, "all_pairs": False}[sim.neighbour_search],
-        serial={"auto": None, "serial": True, "parallel": False}[sim.launch],
+        launch=None if sim.launch == "auto" else sim.launch,
         collision_log=sim.collision_log, progress_every_s=sim.progress_every_s,
     )

@@ -7,12 +7,14 @@ A step (velocity Verlet, LIGGGHTS' initial/final integrate):
   4. sphere-sphere contacts, once per pair, into the list slots (pairs.py)
   5. per particle: gather the pair slots, wall contacts, half kick, skin check
                                                                 (neighbours.py, walls.py)
-Two ways to run steps, chosen once per system (`Engine.serial`):
-- parallel: one kernel launch per step, parallel over particles (large systems);
+Three ways to run steps, chosen once per system (`Engine.launch`):
 - serial: many whole steps per launch, parallel over replicas and serial inside each
-  (small systems and batches of replicas, where launch overhead would dominate).
-Both call the same functions in the same order, so they give identical results, and
-neither depends on the number of threads.
+  (small systems and batches of replicas, where launch overhead would dominate);
+- team: many whole steps per launch by a team of CPU threads sharing the particles, with a
+  barrier between phases (large systems on a CPU with two or more threads; team.py);
+- parallel: one kernel launch per step, parallel over particles (a GPU).
+All call the same functions in the same order, so they give identical results, and
+none depends on the number of threads.
 """
 
 import logging
@@ -36,6 +38,7 @@ from .pairs import PairContacts
 from .particles import Particles
 from .results import Recorder, Results
 from .system import SystemSpec
+from .team import SPACING, Team
 from .walls import Walls
 
 log = logging.getLogger(__name__)
@@ -44,12 +47,14 @@ log = logging.getLogger(__name__)
 # balls) test all pairs, which for a handful of balls costs less than binning them.
 GRID_MIN_PARTICLES = 8
 # Up to this many particles, whole steps run serially in one launch: a parallel loop costs
-# ~40-60 us to dispatch on a CPU, more than a whole step of a few thousand balls.
+# ~40-70 us to dispatch on a CPU, more than a whole step of a few thousand balls.
 SERIAL_MAX_PARTICLES = 3000
+LAUNCHES = ("serial", "team", "parallel")
 # Memory of the engine's fields, measured on a 3,645-ball drum (f64): 525 B per particle plus
 # 244 B per contact slot (4.4 kB at 16 slots), 32 B per buffered collision.
 PARTICLE_BYTES, SLOT_BYTES, EVENT_BYTES = 525, 244, 32
 DRIFT, POSE, PAIRS, FINISH = 1, 2, 4, 8  # phases of a step
+BUILD, LINK = 16, 32  # phases of a neighbour-list rebuild
 STEP = DRIFT | POSE | PAIRS | FINISH
 
 
@@ -69,8 +74,8 @@ class EngineOptions:
     skin_fraction: neighbour-list skin as a fraction of the largest radius (larger: fewer
     rebuilds, more candidate pairs; results agree to round-off whatever the skin).
     grid: None picks a cell grid when some replica has more than GRID_MIN_PARTICLES.
-    serial: None runs whole steps in one launch for replica batches, for systems of up to
-    SERIAL_MAX_PARTICLES and on one CPU thread.
+    launch: one of LAUNCHES; None: serial for replica batches, systems of up to
+    SERIAL_MAX_PARTICLES and one CPU thread, else team on a CPU and parallel on a GPU.
     parallel_binning: None bins particles into cells serially on a CPU (faster than launching
     threads) and in parallel, then sorts each cell, on a GPU; True/False forces one path.
     """
@@ -81,7 +86,7 @@ class EngineOptions:
     max_overlap_fraction: float = 0.05
     skin_fraction: float = 0.5
     grid: bool | None = None
-    serial: bool | None = None
+    launch: str | None = None
     collision_log: bool = True  # False compiles the collision log out (dense beds make millions)
     progress_every_s: float = 30.0
     parallel_binning: bool | None = None  # None: serial on a CPU, parallel binning + per-cell sort elsewhere
@@ -97,7 +102,9 @@ class Engine:
         self.p.dt[None] = self.dt
         self.n, self.n_rep, self.n_body = self.p.n, self.p.n_rep, len(spec.bodies)
         self.use_grid = bool(self.p.counts.max() > GRID_MIN_PARTICLES) if options.grid is None else options.grid
-        self.serial = self._choose_serial() if options.serial is None else options.serial
+        self.launch = self._choose_launch() if options.launch is None else options.launch
+        if self.launch not in LAUNCHES:
+            raise ValueError(f"launch={self.launch!r} is not one of {LAUNCHES}")
         k = options.max_contacts_per_particle
         self.monitor = Monitor(options.event_capacity)
         self.tables = PairTables(spec)
@@ -107,6 +114,7 @@ class Engine:
         self.book = EnergyBook(self.p)
         self.pairs = PairContacts(self.p, self.tables, self.nl, self.monitor, self.book, options.collision_log)
         self.walls = Walls(spec, self.p, self.tables, self.mo, self.monitor, self.book, k, options.collision_log)
+        self.team = Team(max(ti.lang.impl.current_cfg().cpu_max_num_threads, 1), self.n)
         self.x, self.v, self.w = self.p.x, self.p.v, self.p.w
         self.max_overlap = self.monitor.max_overlap
         self.step_index = 0
@@ -116,10 +124,12 @@ class Engine:
         self._accumulated_steps = 1
         self.initial_energy_j = _stored(self._energy_now())
 
-    def _choose_serial(self) -> bool:
+    def _choose_launch(self) -> str:
         cfg = ti.lang.impl.current_cfg()
-        one_thread = cfg.arch == ti.cpu and cfg.cpu_max_num_threads == 1
-        return self.n_rep > 1 or one_thread or (cfg.arch == ti.cpu and self.n <= SERIAL_MAX_PARTICLES)
+        on_cpu = cfg.arch == ti.cpu
+        if self.n_rep > 1 or (on_cpu and (cfg.cpu_max_num_threads == 1 or self.n <= SERIAL_MAX_PARTICLES)):
+            return "serial"
+        return "team" if on_cpu else "parallel"
 
     # ---------------------------------------------------------------- kernels
     @ti.func
@@ -179,12 +189,65 @@ class Engine:
                 for i in range(i0, i1):
                     self.finish(i, k, True)
 
+    @ti.func
+    def team_phase(self, t, base, k, phase: ti.template()):
+        """Member t's share of one phase (chunks of particles as it frees up); the next base."""
+        c = self.team.ticket(base)
+        while c < self.team.n_chunks:
+            for i in range(c * self.team.chunk, ti.min((c + 1) * self.team.chunk, self.n)):
+                if ti.static(phase == DRIFT):
+                    self.p.kick_drift(i, self.monitor)
+                if ti.static(phase == PAIRS):
+                    self.pairs.forces(i, k)
+                if ti.static(phase == FINISH):
+                    self.finish(i, k, True)
+                if ti.static(phase == BUILD):
+                    self.nl.build_particle(i)
+                if ti.static(phase == LINK):
+                    self.nl.link_reverse(i)
+            c = self.team.ticket(base)
+        return self.team.next_base(base)
+
+    @ti.kernel
+    def _team_steps(self, k0: ti.i32, nsteps: ti.i32):
+        """nsteps whole steps by the team: a rebuild when due, drift, wall poses (member 0),
+        pair contacts, then wall contacts and the second half kick, with a barrier after each."""
+        ti.loop_config(block_dim=SPACING)
+        for q in range(self.team.members):
+            t, base, passed = self.team.member(q), 0, 0
+            for s in range(nsteps if t >= 0 else 0):
+                k = k0 + s + 1
+                if ti.atomic_or(self.nl.any_due[None], 0):
+                    if t == 0:
+                        self.nl.bin_all()
+                    passed = self.team.barrier(passed)
+                    base = self.team_phase(t, base, k, BUILD)
+                    passed = self.team.barrier(passed)
+                    base = self.team_phase(t, base, k, LINK)
+                    if t == 0:
+                        self.nl.built()
+                    passed = self.team.barrier(passed)
+                base = self.team_phase(t, base, k, DRIFT)
+                passed = self.team.barrier(passed)
+                if t == 0:
+                    for r, b in ti.ndrange(self.n_rep, self.n_body):
+                        self.mo.pose(r, b, k * self.p.dt[None])
+                base = self.team_phase(t, base, k, PAIRS)
+                passed = self.team.barrier(passed)
+                base = self.team_phase(t, base, k, FINISH)
+                passed = self.team.barrier(passed)
+
     # ---------------------------------------------------------------- driving
     def advance(self, nsteps: int) -> None:
         """Advance nsteps time steps."""
-        if self.serial:
+        if self.launch == "serial":
             self._serial_steps(self.step_index, nsteps)
             self.step_index += nsteps
+        elif self.launch == "team":
+            self.team.reset()
+            self._team_steps(self.step_index, nsteps)
+            self.step_index += nsteps
+            self._due = bool(self.nl.any_due[None])
         else:
             for _ in range(nsteps):
                 if self._due:

@@ -196,30 +196,44 @@ class NeighbourList:
         self.due[r] = 0
         self.builds[None] += 1
 
+    @ti.func
+    def bin_all(self):
+        """Every particle into its cell, serially in id order, so each cell is already sorted."""
+        if ti.static(self.use_grid):
+            for c in range(self.cell_count.shape[0]):
+                self.cell_count[c] = 0
+            for i in range(self.n):
+                self.bin(i)
+
+    @ti.func
+    def built(self):
+        """After a rebuild of every replica: nothing due, one more build."""
+        for r in range(self.n_rep):
+            self.due[r] = 0
+        self.any_due[None] = 0
+        self.builds[None] += 1
+
     @ti.kernel
     def build_all(self):
         """Parallel rebuild of every replica."""
-        if ti.static(self.use_grid):
+        if ti.static(self.use_grid and not self.serial_binning):
             for c in self.cell_count:
                 self.cell_count[c] = 0
-            if ti.static(self.serial_binning):
-                ti.loop_config(serialize=True)
-                for i in range(self.n):  # in id order, so each cell is already sorted
-                    self.bin(i)
-            else:
-                for i in range(self.n):
-                    self.bin(i)
-                for c in self.cell_count:
-                    self.sort_row(self.cell_list, c, ti.min(self.cell_count[c], self.cell_cap))
+            for i in range(self.n):
+                self.bin(i)
+            for c in self.cell_count:
+                self.sort_row(self.cell_list, c, ti.min(self.cell_count[c], self.cell_cap))
+        else:
+            ti.loop_config(serialize=True)
+            for _ in range(1):
+                self.bin_all()
         for i in range(self.n):
             self.build_particle(i)
         for i in range(self.n):
             self.link_reverse(i)
         ti.loop_config(serialize=True)
-        for r in range(self.n_rep):
-            self.due[r] = 0
-        self.any_due[None] = 0
-        self.builds[None] += 1
+        for _ in range(1):
+            self.built()
 
     # ------------------------------------------------------------------ per step
     @ti.func
