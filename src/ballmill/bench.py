@@ -5,6 +5,10 @@ volume at bed porosity 0.4 (~8,600 balls), 70 % of critical speed, E = 2e8 Pa, v
 rho 7900, e 0.5, mu 0.5, mu_r 0.01, dt 20 % of Rayleigh; settle, then rotate.
 Other sizes scale D and L by (N / 8600)^(1/3).  `bpr19` is the paper's mill at BPR 19 instead:
 D 1.743 m, L 2.614 m, 523 balls of 160 mm, 15 rpm, physical steel (G 77 GPa), dt 1.74e-5 s.
+Cases of `large_from` balls or more (the 100,000-ball drum) are timed over shorter
+`large_settle_s` / `large_rotate_s`.  The `scaling` cases run on one thread as well (thread
+scaling); each row carries the launch used, the memory the engine took per particle and the
+share of each phase of a step (`Engine.profile`).
 Figures are printed as a table and written as JSON (`json=PATH`); `peer=liggghts`, `lammps` or
 `both` runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
 
@@ -39,26 +43,24 @@ def scaled_drum(n_balls: int) -> DrumConfig:
 
 
 def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, profile_steps: int,
-          precision: str = "f64", skin: float = 0.5, peer: str | None = None) -> dict:
-    """Throughput of one drum case: a ball count (the scaled reference drum) or 'bpr19'."""
+          precision: str = "f64", skin: float = 0.5, peer: str | None = None, scaling: bool = False) -> dict:
+    """Throughput of one drum case: a ball count (the scaled reference drum) or 'bpr19'; with
+    `scaling`, the same run on one thread as well."""
     drum, material = (BPR19, MaterialConfig()) if case == "bpr19" else (scaled_drum(int(case)), STEEL_E2E8)
     sim = SimConfig(arch=arch, threads=threads, precision=precision, settle_s=settle_s, duration_s=rotate_s,
-                    sample_every_s=0.05, neighbour_skin=skin, max_overlap_fraction=0.1)
+                    sample_every_s=min(0.05, rotate_s / 2), neighbour_skin=skin, max_overlap_fraction=0.1)
     spec = drum_spec(drum, {"steel": material}, PAIRS, sim)
-    init_taichi(arch, precision, threads)
-    # E = 2e8 Pa lets the bed sink ~3-6 % of a radius under its own weight: allow 10 %.
-    engine = Engine(spec, replace(engine_options(sim, time_step_s(spec, sim)), collision_log=False))
-    engine.run(settle_s, sim.sample_every_s, label="settle")
-    builds0, t0 = engine.rebuilds(), time.perf_counter()
-    res = engine.run(rotate_s, sim.sample_every_s, label="rotate")
-    wall = time.perf_counter() - t0
+    one_thread = {}
+    if scaling:
+        one_thread = {"particle_steps_per_s_1_thread": bench_run(spec, sim, 1)[1]}
+    rss0 = resident_bytes()
+    engine, rate, res, builds = bench_run(spec, sim, threads)
     steps = round(rotate_s / engine.dt)
-    builds = engine.rebuilds() - builds0
     contacts = engine.contacts_per_particle()
+    bytes_per_particle = (resident_bytes() - rss0) / spec.n_particles
     phases = engine.profile(profile_steps)
     total = sum(phases.values())
     power, se = res.mean_power_w("drum", after_s=settle_s + 0.3 * rotate_s)
-    rate = spec.n_particles * steps / wall
     peers = {}
     if peer:
         peers = peer_rates(peer_names(peer), spec, drum, material, PAIRS["steel-steel"], engine.dt, settle_s,
@@ -66,12 +68,34 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
         peers |= {f"ratio_to_{k}": rate / v for k, v in list(peers.items())}
     return {
         "case": case, "balls": spec.n_particles, "arch": arch, "threads": threads or "all", "precision": precision,
-        "launch": engine.launch, "dt_s": engine.dt, "skin_fraction": skin,
-        "particle_steps_per_s": rate, "steps_per_rebuild": steps / max(builds, 1),
-        "contacts_per_particle": contacts, "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "launch": engine.launch, "dt_s": engine.dt, "skin_fraction": skin, "settle_s": settle_s, "rotate_s": rotate_s,
+        "particle_steps_per_s": rate, **one_thread,
+        **({"thread_scaling": rate / one_thread["particle_steps_per_s_1_thread"]} if one_thread else {}),
+        "steps_per_rebuild": steps / max(builds, 1), "contacts_per_particle": contacts,
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "engine_bytes_per_particle": bytes_per_particle,
         "power_w": power, "power_se_w": se, **{f"share_{k.replace(' ', '_')}": v / total for k, v in phases.items()},
         **peers,
     }
+
+
+def bench_run(spec, sim: SimConfig, threads: int) -> tuple[Engine, float, object, int]:
+    """Settle, then time the rotation on `threads` threads: (engine, particle-steps/s, results,
+    list builds during the rotation)."""
+    init_taichi(sim.arch, sim.precision, threads)
+    # E = 2e8 Pa lets the bed sink ~3-6 % of a radius under its own weight: allow 10 %.
+    engine = Engine(spec, replace(engine_options(sim, time_step_s(spec, sim)), collision_log=False))
+    engine.run(sim.settle_s, sim.sample_every_s, label="settle")
+    builds0, t0 = engine.rebuilds(), time.perf_counter()
+    res = engine.run(sim.duration_s, sim.sample_every_s, label="rotate")
+    rate = spec.n_particles * round(sim.duration_s / engine.dt) / (time.perf_counter() - t0)
+    return engine, rate, res, engine.rebuilds() - builds0
+
+
+def resident_bytes() -> float:
+    """Memory the process holds now (resident set, bytes)."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * resource.getpagesize()
 
 
 def peer_names(peer: str | None) -> tuple[str, ...]:
@@ -101,10 +125,14 @@ def main(opts: BenchConfig) -> None:
     if opts.lab:
         rows = [bench_lab(opts.threads, opts.lab_duration_s)]
     else:
-        rows = [bench(c, opts.arch, opts.threads, opts.settle_s, opts.rotate_s, opts.profile_steps, opts.precision,
-                      opts.skin, opts.peer) for c in opts.cases]
-    keys = list(rows[0])
+        rows = []
+        for c in opts.cases:
+            large = c != "bpr19" and int(c) >= opts.large_from
+            times = (opts.large_settle_s, opts.large_rotate_s) if large else (opts.settle_s, opts.rotate_s)
+            rows.append(bench(c, opts.arch, opts.threads, *times, opts.profile_steps, opts.precision, opts.skin,
+                              opts.peer, scaling=c in opts.scaling))
+    keys = list(dict.fromkeys(k for r in rows for k in r))
     print("\n" + " | ".join(keys))
     for r in rows:
-        print(" | ".join(f"{r[k]:.4g}" if isinstance(r[k], float) else str(r[k]) for k in keys))
+        print(" | ".join(f"{r[k]:.4g}" if isinstance(r.get(k), float) else str(r.get(k, "")) for k in keys))
     write_json(opts.json, {"options": asdict(opts), "rows": rows})

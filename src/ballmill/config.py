@@ -530,14 +530,19 @@ class ReportConfig:
 class BenchConfig:
     """`ballmill bench`: DEM throughput (particle-steps/s) on the reference drum."""
 
-    cases: list[str] = field(default_factory=lambda: ["1000", "8640", "bpr19"],
+    cases: list[str] = field(default_factory=lambda: ["1000", "8640", "bpr19", "100000"],
                               metadata={"doc": "ball counts of the scaled reference drum, or bpr19"})
+    scaling: list[str] = field(default_factory=lambda: ["8640"],
+                               metadata={"doc": "cases also run on one thread (thread scaling)"})
     arch: str = field(default="cpu", metadata={"choices": ("cpu", "cuda")})
     precision: str = field(default="f64", metadata={"choices": ("f64", "f32")})
     threads: int = rng(0, 0, None, doc="CPU threads (0: all cores)")
     skin: float = rng(0.5, 0.0, None, lo_open=True, doc="neighbour skin / largest ball radius")
     settle_s: float = rng(0.3, 0.0, None, doc="settling time before the timed rotation (s)")
     rotate_s: float = rng(1.0, 0.0, None, lo_open=True, doc="timed rotation (s)")
+    large_from: int = rng(20_000, 2, None, doc="cases of at least this many balls use the large_* times")
+    large_settle_s: float = rng(0.15, 0.0, None, doc="settling time of large cases (s)")
+    large_rotate_s: float = rng(0.05, 0.0, None, lo_open=True, doc="timed rotation of large cases (s)")
     profile_steps: int = rng(50, 1, None)
     lab: bool = field(default=False, metadata={"doc": "the MM400 10 x 10 grid instead of the drum"})
     lab_duration_s: float = rng(2.0, 0.0, None, lo_open=True, doc="simulated time per MM400 replica (s)")
