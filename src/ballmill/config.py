@@ -80,7 +80,7 @@ class SimConfig:
         "choices": ("auto", "grid", "all_pairs"), "doc": "auto: a cell grid when a replica has more than 8 balls"})
     launch: str = field(default="auto", metadata={
         "choices": ("auto", "serial", "team", "parallel"),
-        "doc": "serial: whole steps per launch (auto: replica batches, <= 3000 balls or one thread); team: "
+        "doc": "serial: whole steps per launch (auto: replica batches, < 500 balls or one thread); team: "
                "whole steps per launch by all CPU threads (auto: larger systems on a CPU); parallel: a launch a step"})
     collision_log: bool = field(default=True, metadata={"doc": "record every finished contact (collisions table)"})
     progress_every_s: float = rng(30.0, 0.0, None, lo_open=True, doc="wall-clock time between progress log lines (s)")

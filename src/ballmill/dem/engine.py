@@ -46,9 +46,10 @@ log = logging.getLogger(__name__)
 # A replica with more particles than this searches a cell grid; fewer (an MM400 jar holds 1-2
 # balls) test all pairs, which for a handful of balls costs less than binning them.
 GRID_MIN_PARTICLES = 8
-# Up to this many particles, whole steps run serially in one launch: a parallel loop costs
-# ~40-70 us to dispatch on a CPU, more than a whole step of a few thousand balls.
-SERIAL_MAX_PARTICLES = 3000
+# Below this many particles a CPU runs whole steps serially in one launch; from it on, a team of
+# threads does (a team's barriers cost ~0.1-0.2 us; 2 threads against 1: 1.14x at 523 balls,
+# 1.4x at 1,000, 2.1x at 8,640).  A parallel loop costs ~70 us to dispatch on this machine.
+TEAM_MIN_PARTICLES = 500
 LAUNCHES = ("serial", "team", "parallel")
 # Memory of the engine's fields, measured on a 3,645-ball drum (f64): 525 B per particle plus
 # 244 B per contact slot (4.4 kB at 16 slots), 32 B per buffered collision.
@@ -74,8 +75,8 @@ class EngineOptions:
     skin_fraction: neighbour-list skin as a fraction of the largest radius (larger: fewer
     rebuilds, more candidate pairs; results agree to round-off whatever the skin).
     grid: None picks a cell grid when some replica has more than GRID_MIN_PARTICLES.
-    launch: one of LAUNCHES; None: serial for replica batches, systems of up to
-    SERIAL_MAX_PARTICLES and one CPU thread, else team on a CPU and parallel on a GPU.
+    launch: one of LAUNCHES; None: serial for replica batches, systems of fewer than
+    TEAM_MIN_PARTICLES and one CPU thread, else team on a CPU and parallel on a GPU.
     parallel_binning: None bins particles into cells serially on a CPU (faster than launching
     threads) and in parallel, then sorts each cell, on a GPU; True/False forces one path.
     """
@@ -127,7 +128,7 @@ class Engine:
     def _choose_launch(self) -> str:
         cfg = ti.lang.impl.current_cfg()
         on_cpu = cfg.arch == ti.cpu
-        if self.n_rep > 1 or (on_cpu and (cfg.cpu_max_num_threads == 1 or self.n <= SERIAL_MAX_PARTICLES)):
+        if self.n_rep > 1 or (on_cpu and (cfg.cpu_max_num_threads == 1 or self.n < TEAM_MIN_PARTICLES)):
             return "serial"
         return "team" if on_cpu else "parallel"
 
