@@ -245,9 +245,13 @@ class Engine:
             self._serial_steps(self.step_index, nsteps)
             self.step_index += nsteps
         elif self.launch == "team":
-            self.team.reset()
-            self._team_steps(self.step_index, nsteps)
-            self.step_index += nsteps
+            done = 0
+            while done < nsteps:  # launches short enough that the team's i32 counters cannot overflow
+                part = min(nsteps - done, self.team.max_steps_per_launch)
+                self.team.reset()
+                self._team_steps(self.step_index, part)
+                self.step_index += part
+                done += part
             self._due = bool(self.nl.any_due[None])
         else:
             for _ in range(nsteps):

@@ -11,7 +11,7 @@ PRECISIONS = {"f64": ti.f64, "f32": ti.f32}
 
 
 def init_taichi(arch: str = "cpu", precision: str = "f64", threads: int = 0, seed: int = 0) -> None:
-    """(Re)start Taichi.  `threads` = 0 lets Taichi use every core (CPU only).
+    """(Re)start Taichi.  `threads` = 0 uses every core this process may run on (CPU only).
 
     A CUDA request never falls back to the CPU silently: it raises instead.
     """
@@ -27,8 +27,8 @@ def init_taichi(arch: str = "cpu", precision: str = "f64", threads: int = 0, see
         "offline_cache": True,
         "log_level": ti.WARN,
     }
-    if arch == "cpu" and threads > 0:
-        kwargs["cpu_max_num_threads"] = threads
+    if arch == "cpu":  # Taichi's own default counts the machine's cores, not those this process may use
+        kwargs["cpu_max_num_threads"] = threads if threads > 0 else len(os.sched_getaffinity(0))
     ti.reset()
     ti.init(**kwargs)
     actual = ti.lang.impl.current_cfg().arch

@@ -47,6 +47,11 @@ class Team:
     def members(self) -> int:
         return self.size * SPACING
 
+    @property
+    def max_steps_per_launch(self) -> int:
+        """Steps whose tickets and barrier arrivals fit an i32: at most 5 phases a step."""
+        return max(1, (2**31 - 1) // (5 * (self.n_chunks + self.size)))
+
     @ti.kernel
     def reset(self):
         """Before each launch: no tickets handed out, no barrier passed."""
