@@ -1,5 +1,6 @@
 """Configs compose, sweeps compose, and bad values fail early with the field and the range."""
 
+import os
 from pathlib import Path
 
 import pytest
@@ -45,3 +46,14 @@ def test_unknown_keys_and_wrong_types_are_refused():
         to_object({"dt_fractoin": 0.1}, SimConfig, "sim")
     with pytest.raises(ConfigError, match="mill"):
         to_object({"inner_diameter_m": "wide"}, DrumConfig, "mill")
+
+
+def test_all_cores_are_shared_among_the_jobs_a_sweep_runs_at_once_here(monkeypatch):
+    from ballmill.dem.runtime import LOCAL_JOBS_ENV, cpu_threads
+
+    cores = len(os.sched_getaffinity(0))
+    assert cpu_threads(3) == 3
+    monkeypatch.delenv(LOCAL_JOBS_ENV, raising=False)
+    assert cpu_threads(0) == cores
+    monkeypatch.setenv(LOCAL_JOBS_ENV, "2")
+    assert cpu_threads(0) == max(1, cores // 2)

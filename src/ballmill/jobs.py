@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import itertools
+import os
 from pathlib import Path
 
 from hydra.core.override_parser.overrides_parser import OverridesParser
@@ -11,6 +12,7 @@ from hydra.errors import HydraException
 from hydra.types import RunMode
 
 from .config import ConfigError, one_line
+from .dem.runtime import LOCAL_JOBS_ENV
 from .scenario import compose, load
 from .studies import check_machine, plan
 
@@ -53,6 +55,8 @@ def check_jobs(overrides: list[str], multirun: bool) -> Path | None:
     What depends on the machine (threads, CUDA) is checked here only when the jobs run here."""
     jobs, sweep_dir = expand(overrides, multirun)
     launcher = compose("config", jobs[0], hydra=True).hydra.launcher
+    if runs_here(launcher) and len(jobs) > 1:  # sim.threads=0 then shares the cores among the jobs at once
+        os.environ[LOCAL_JOBS_ENV] = str(min(len(jobs), int(launcher.get("n_jobs") or os.cpu_count() or 1)))
     for job in jobs:
         try:
             scenario = load(compose("config", job))
