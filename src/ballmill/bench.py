@@ -54,8 +54,7 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
     if scaling:
         one_thread = {"particle_steps_per_s_1_thread": bench_run(spec, sim, 1)[1]}
     rss0 = resident_bytes()
-    engine, rate, res, builds = bench_run(spec, sim, threads)
-    steps = round(rotate_s / engine.dt)
+    engine, rate, res, steps_per_rebuild = bench_run(spec, sim, threads)
     contacts = engine.contacts_per_particle()
     bytes_per_particle = (resident_bytes() - rss0) / spec.n_particles
     phases = engine.profile(profile_steps)
@@ -71,7 +70,7 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
         "launch": engine.launch, "dt_s": engine.dt, "skin_fraction": skin, "settle_s": settle_s, "rotate_s": rotate_s,
         "particle_steps_per_s": rate, **one_thread,
         **({"thread_scaling": rate / one_thread["particle_steps_per_s_1_thread"]} if one_thread else {}),
-        "steps_per_rebuild": steps / max(builds, 1), "contacts_per_particle": contacts,
+        "steps_per_rebuild": steps_per_rebuild, "contacts_per_particle": contacts,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "engine_bytes_per_particle": bytes_per_particle,
         "power_w": power, "power_se_w": se, **{f"share_{k.replace(' ', '_')}": v / total for k, v in phases.items()},
@@ -79,17 +78,18 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
     }
 
 
-def bench_run(spec, sim: SimConfig, threads: int) -> tuple[Engine, float, object, int]:
+def bench_run(spec, sim: SimConfig, threads: int) -> tuple[Engine, float, object, float]:
     """Settle, then time the rotation on `threads` threads: (engine, particle-steps/s, results,
-    list builds during the rotation)."""
+    steps per list build during the rotation)."""
     init_taichi(sim.arch, sim.precision, threads)
     # E = 2e8 Pa lets the bed sink ~3-6 % of a radius under its own weight: allow 10 %.
     engine = Engine(spec, replace(engine_options(sim, time_step_s(spec, sim)), collision_log=False))
     engine.run(sim.settle_s, sim.sample_every_s, label="settle")
     builds0, t0 = engine.rebuilds(), time.perf_counter()
     res = engine.run(sim.duration_s, sim.sample_every_s, label="rotate")
-    rate = spec.n_particles * round(sim.duration_s / engine.dt) / (time.perf_counter() - t0)
-    return engine, rate, res, engine.rebuilds() - builds0
+    steps = round(sim.duration_s / engine.dt)
+    rate = spec.n_particles * steps / (time.perf_counter() - t0)
+    return engine, rate, res, steps / max(engine.rebuilds() - builds0, 1)
 
 
 def resident_bytes() -> float:

@@ -52,7 +52,8 @@ def runs_here(launcher) -> bool:
 
 def check_jobs(overrides: list[str], multirun: bool) -> Path | None:
     """Refuse the whole run (ConfigError naming the job) if any job's config is bad; the sweep folder.
-    What depends on the machine (threads, CUDA) is checked here only when the jobs run here."""
+    What depends on the machine (threads, CUDA) is checked here only when the jobs run here, and
+    then the number of jobs run at once is put in LOCAL_JOBS_ENV (inherited by the job processes)."""
     jobs, sweep_dir = expand(overrides, multirun)
     launcher = compose("config", jobs[0], hydra=True).hydra.launcher
     if runs_here(launcher) and len(jobs) > 1:  # sim.threads=0 then shares the cores among the jobs at once
