@@ -7,7 +7,7 @@ import json
 import logging
 import math
 import tempfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +26,7 @@ from .dem import (
     Plane,
     Recorder,
     Results,
+    SettledBed,
     SimulationError,
     SystemSpec,
     available_memory_bytes,
@@ -328,10 +329,32 @@ def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out_dir: Path) -> DrumRun:
+def settle_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
+    """Hash of what determines the charge at rest before the drum turns: dem_key's inputs but
+    the drum's speed and the run's length and averaging."""
+    return dem_key(replace(drum, speed_rpm=None, fraction_of_critical=1.0), materials, interactions,
+                   replace(sim, duration_s=1.0, steady_after_s=0.0, power_se_target=None))
+
+
+def settled_bed(drum: DrumConfig, materials, interactions, sim: SimConfig, dt: float,
+                beds_dir: Path | None) -> SettledBed | None:
+    """Where the charge at rest is kept for other runs of the same drum and charge: two steps
+    before the drum starts (however t = k dt rounds); none without a folder, a settling time or
+    with VTK output (its files of the settling would be missing from a run that skips it)."""
+    step = math.ceil(sim.settle_s / dt) - 2
+    if beds_dir is None or step < 1 or sim.vtk_every:
+        return None
+    key = settle_key(drum, materials, interactions, sim)
+    return SettledBed(Path(beds_dir) / f"{key}.npz", key, step)
+
+
+def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out_dir: Path,
+                  beds_dir: Path | None = None) -> DrumRun:
     """Run the drum DEM (or reuse the finished run in out_dir, a cache entry) and summarise
     torque and power; the tables go to out_dir as Parquet (and VTK files when asked).  Two jobs
-    asking for the same entry at once: the second waits for the first and reuses its result."""
+    asking for the same entry at once: the second waits for the first and reuses its result.
+    With beds_dir, the settled charge is shared with every run of the same drum and charge
+    (other speeds, durations, windows): the first saves it there, the others start from it."""
     out_dir = Path(out_dir)
     summary_path = out_dir / "dem_summary.json"
     key = dem_key(drum, materials, interactions, sim)
@@ -342,10 +365,11 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
             return DrumRun(cached, Results.read(out_dir))
         if summary_path.exists():
             log.warning("%s: unreadable or of another run: running it again", summary_path)
-        return run_drum_dem(drum, materials, interactions, sim, out_dir, key)
+        return run_drum_dem(drum, materials, interactions, sim, out_dir, key, beds_dir)
 
 
-def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_dir: Path, key: str) -> DrumRun:
+def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_dir: Path, key: str,
+                 beds_dir: Path | None) -> DrumRun:
     """The drum DEM itself, written into the cache entry out_dir (see simulate_drum)."""
     summary_path = out_dir / "dem_summary.json"
     spec = drum_spec(drum, materials, interactions, sim)
@@ -367,7 +391,8 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
     turn = 60.0 / drum_speed_rpm(drum)
     window = PowerWindow(recorder, "drum", after, turn, sim.power_se_target) if sim.power_se_target else None
     results = engine.run(end, sim.sample_every_s, recorder, label="drum", checkpoint=checkpoint,
-                         phases=((0.0, "settle"), (sim.settle_s, "rotate"), (after, "average")), stop=window)
+                         phases=((0.0, "settle"), (sim.settle_s, "rotate"), (after, "average")), stop=window,
+                         bed=settled_bed(drum, materials, interactions, sim, dt, beds_dir))
     shape = drum_charge_shape(drum, results.trajectories, after, spec.radius_m, engine.p.mass_np,
                               float(spec.materials[drum.ball_material].density_kg_per_m3))
     power, power_se = results.mean_power_w("drum", after)

@@ -127,7 +127,7 @@ def run_drum(s: Scenario, drum: DrumConfig, out_dir: Path | None = None) -> tupl
     check_numerics(drum_spec(drum, s.materials, s.interactions, s.sim), s.sim, "mill")
     dem_dir = s.cache_dir / "dem" / dem_key(drum, s.materials, s.interactions, s.sim)
     check_machine(s.sim)
-    run = simulate_drum(drum, s.materials, s.interactions, s.sim, dem_dir)
+    run = simulate_drum(drum, s.materials, s.interactions, s.sim, dem_dir, s.cache_dir / "beds")
     if out_dir is not None:
         run.results.loads.to_csv(out_dir / "loads.csv", index=False)
         save_figure(plot_drum_loads(run.results.loads, steady_after_s=run.summary["averaging_from_s"]),

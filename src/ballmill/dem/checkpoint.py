@@ -1,6 +1,8 @@
 """Checkpoint and restart: a run's full state (every engine field, the step, the recorder's
 samples so far) saved every so often, so that an interrupted run continues where it was and
-ends with the same bits as an uninterrupted one (same thread count).
+ends with the same bits as an uninterrupted one (same thread count).  A settled bed is the same
+state saved once, when the charge has settled and before the walls move, for other runs of the
+same vessel and charge to start from.
 
 The file is a NumPy .npz read with allow_pickle=False: the arrays as they are, everything else
 as JSON text inside it (paths and object arrays marked so they come back as they were).  Cache
@@ -57,6 +59,33 @@ def decode(obj, arrays):
     return {decode(k, arrays): decode(v, arrays) for k, v in obj["__dict__"]}
 
 
+def write_state(path: Path, payload: dict, compress: bool = False) -> None:
+    """payload as an .npz (its arrays as arrays, the rest as JSON text), written atomically."""
+    arrays: list[np.ndarray] = []
+    meta = encode(payload, arrays)
+    save = np.savez_compressed if compress else np.savez
+
+    def dump(tmp: Path) -> None:
+        with open(tmp, "wb") as f:
+            save(f, **{META: np.array(json.dumps(meta))}, **{f"a{i}": a for i, a in enumerate(arrays)})
+            f.flush()
+            os.fsync(f.fileno())
+
+    write_atomic(path, dump)
+
+
+def read_state(path: Path) -> dict | None:
+    """The payload write_state wrote to path; None when there is none or it is unreadable."""
+    if not Path(path).exists():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as arrays:
+            return decode(json.loads(str(arrays[META])), arrays)
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+        log.warning("ignoring the unreadable state file %s (%s)", path, exc)
+        return None
+
+
 @dataclass(frozen=True)
 class Checkpoint:
     """Where and how often (simulated seconds) a run saves itself; `key` names what it simulates
@@ -68,36 +97,47 @@ class Checkpoint:
 
     def save(self, engine, recorder, next_sample: int, label: str) -> None:
         """Write the state atomically: a temporary file renamed over the last checkpoint."""
-        arrays: list[np.ndarray] = []
-        meta = encode({"key": self.key, "label": label, "next_sample": next_sample, "engine": engine.state(),
-                       "recorder": recorder.state()}, arrays)
-
-        def dump(tmp: Path) -> None:
-            with open(tmp, "wb") as f:
-                np.savez(f, **{META: np.array(json.dumps(meta))}, **{f"a{i}": a for i, a in enumerate(arrays)})
-                f.flush()
-                os.fsync(f.fileno())
-
-        write_atomic(self.path, dump)
+        write_state(self.path, {"key": self.key, "label": label, "next_sample": next_sample,
+                                "engine": engine.state(), "recorder": recorder.state()})
 
     def resume(self, engine, recorder, label: str) -> int:
         """Restore engine and recorder from the checkpoint if it is this run's: the sample to
         continue from (0: start from the beginning)."""
-        path = Path(self.path)
-        if not path.exists():
-            return 0
-        try:
-            with np.load(path, allow_pickle=False) as arrays:
-                payload = decode(json.loads(str(arrays[META])), arrays)
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
-            log.warning("ignoring the unreadable checkpoint %s (%s)", path, exc)
-            return 0
-        if payload.get("key") != self.key or payload.get("label") != label:
+        payload = read_state(self.path)
+        if payload is None or payload.get("key") != self.key or payload.get("label") != label:
             return 0
         engine.restore(payload["engine"])
         recorder.restore(payload["recorder"])
-        log.info("%s: resumed from %s at t=%.4f s", label, path, engine.time_s)
+        log.info("%s: resumed from %s at t=%.4f s", label, self.path, engine.time_s)
         return payload["next_sample"]
 
     def remove(self) -> None:
         Path(self.path).unlink(missing_ok=True)
+
+
+@dataclass(frozen=True)
+class SettledBed:
+    """A charge at rest in its vessel at step `step`, before any wall has moved: saved by the
+    first run of a vessel and charge, restored by later runs that differ only in how the walls
+    move after that, how long they run or what they average.  The wall motions are not saved
+    (they are the runs' own); a restored run ends with the bits it would have had on its own."""
+
+    path: Path
+    key: str
+    step: int
+
+    def save(self, engine, recorder) -> None:
+        write_state(self.path, {"key": self.key, "step": self.step, "engine": engine.state(without=("mo",)),
+                                "recorder": recorder.samples()}, compress=True)
+        log.info("saved the settled bed (t=%.4f s) to %s", engine.time_s, self.path)
+
+    def restore(self, engine, recorder) -> bool:
+        """Start engine and recorder from the saved bed if there is one for this key and step."""
+        payload = read_state(self.path)
+        if payload is None or payload.get("key") != self.key or payload.get("step") != self.step:
+            return False
+        engine.restore(payload["engine"])
+        recorder.restore_samples(payload["recorder"])
+        log.info("starting from the settled bed in %s (t=%.4f s), saved by an earlier run of this vessel and "
+                 "charge", self.path, engine.time_s)
+        return True

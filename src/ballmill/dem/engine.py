@@ -28,7 +28,7 @@ import taichi as ti
 from taichi.lang.field import Field
 from tqdm import tqdm
 
-from .checkpoint import Checkpoint
+from .checkpoint import Checkpoint, SettledBed
 from .contact import PairTables
 from .energy import EnergyBook
 from .monitor import CELL, NEIGHBOURS, WALL_CONTACTS, Monitor
@@ -294,23 +294,31 @@ class Engine:
 
     def run(self, duration_s: float, sample_every_s: float, recorder: Recorder | None = None,
             label: str = "run", checkpoint: Checkpoint | None = None, phases: tuple = (),
-            stop: Callable[[], bool] | None = None) -> Results:
+            stop: Callable[[], bool] | None = None, bed: SettledBed | None = None) -> Results:
         """Advance by duration_s, sampling every sample_every_s (rounded to whole steps); with a
         checkpoint, continue an interrupted run from it and save one every checkpoint.every_s;
-        `stop()`, asked after every sample, ends the run early when it returns True.
+        `stop()`, asked after every sample, ends the run early when it returns True; with a
+        settled bed, start from it when one was saved, else save it on the way at its step.
 
         Progress: a bar (simulated time, phase, particle-steps per second, ETA) on a terminal,
         else a log line every `progress_every_s`; `phases` are (start time (s), name) pairs."""
         recorder = recorder or Recorder(self)
         per_sample = max(1, round(sample_every_s / self.dt))
         n_samples = max(1, round(duration_s / (per_sample * self.dt)))
+        start = self.step_index
         first = checkpoint.resume(self, recorder, label) if checkpoint else 0
+        if not first and bed is not None and bed.restore(self, recorder):
+            first = (self.step_index - start) // per_sample
         saved_at = self.time_s
         bar = tqdm(total=n_samples, initial=first, desc=label, unit="sample",
                    disable=not sys.stderr.isatty())
         t_wall, last_log = time.perf_counter(), time.perf_counter()
         for s in range(first, n_samples):
-            self.advance(per_sample)
+            target = start + (s + 1) * per_sample
+            if bed is not None and self.step_index < bed.step <= target:
+                self.advance(bed.step - self.step_index)
+                bed.save(self, recorder)
+            self.advance(target - self.step_index)
             self.check()
             recorder.sample(self)
             if checkpoint and s < n_samples - 1 and self.time_s - saved_at >= checkpoint.every_s - 0.5 * self.dt:
@@ -330,21 +338,26 @@ class Engine:
         bar.close()
         return recorder.finish()
 
-    def _state_fields(self):
+    def _state_fields(self, without: tuple[str, ...] = ()):
         for part in ("p", "mo", "nl", "walls", "book", "monitor"):
+            if part in without:
+                continue
             for name, value in vars(getattr(self, part)).items():
                 if isinstance(value, Field):
                     yield f"{part}.{name}", value
 
-    def state(self) -> dict:
-        """Everything a run needs to continue: every field of every part, and the counters."""
-        return {"fields": {name: f.to_numpy() for name, f in self._state_fields()},
+    def state(self, without: tuple[str, ...] = ()) -> dict:
+        """Everything a run needs to continue: every field of every part (but the parts named in
+        `without`, e.g. "mo", the wall motions), and the counters."""
+        return {"fields": {name: f.to_numpy() for name, f in self._state_fields(without)},
                 "step_index": self.step_index, "due": self._due, "accumulated_steps": self._accumulated_steps,
                 "initial_energy_j": self.initial_energy_j}
 
     def restore(self, state: dict) -> None:
+        """Set the fields the state holds, and the counters."""
         for name, f in self._state_fields():
-            f.from_numpy(state["fields"][name])
+            if name in state["fields"]:
+                f.from_numpy(state["fields"][name])
         self.step_index, self._due = state["step_index"], state["due"]
         self._accumulated_steps, self.initial_energy_j = state["accumulated_steps"], state["initial_energy_j"]
 

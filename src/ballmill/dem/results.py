@@ -156,14 +156,20 @@ class Recorder:
         mine = np.concatenate(cols["body"]) == body
         return np.concatenate(cols["t_s"])[mine], np.concatenate(cols["power_w"])[mine]
 
+    def samples(self) -> dict:
+        """The samples so far (a settled bed keeps these; a checkpoint keeps the whole state)."""
+        return {"n_samples": self.n_samples, "columns": {k: dict(v) for k, v in self.columns.items()}}
+
+    def restore_samples(self, samples: dict) -> None:
+        self.n_samples = samples["n_samples"]
+        self.columns = {k: defaultdict(list, v) for k, v in samples["columns"].items()}
+
     def state(self) -> dict:
-        return {"n_samples": self.n_samples, "snapshots": list(self.snapshots),
-                "columns": {k: dict(v) for k, v in self.columns.items()},
-                "sinks": [vars(w).copy() for w in self.sinks]}
+        return self.samples() | {"snapshots": list(self.snapshots), "sinks": [vars(w).copy() for w in self.sinks]}
 
     def restore(self, state: dict) -> None:
-        self.n_samples, self.snapshots = state["n_samples"], state["snapshots"]
-        self.columns = {k: defaultdict(list, v) for k, v in state["columns"].items()}
+        self.restore_samples(state)
+        self.snapshots = state["snapshots"]
         for sink, saved in zip(self.sinks, state["sinks"]):
             vars(sink).update(saved)
 

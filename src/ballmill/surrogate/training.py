@@ -77,7 +77,7 @@ def simulate_point(s: Scenario, cfg: SurrogateConfig, point: dict) -> dict:
     key = dem_key(drum, s.materials, pairs, sim)
     started = time.time()
     try:
-        run = simulate_drum(drum, s.materials, pairs, sim, s.cache_dir / "dem" / key)
+        run = simulate_drum(drum, s.materials, pairs, sim, s.cache_dir / "dem" / key, s.cache_dir / "beds")
     except (SimulationError, ConfigError) as exc:  # recorded: the other points carry on
         return {**point, "dem_key": key, "status": f"failed: {exc}"}
     n = ball_count(drum)
