@@ -2,7 +2,7 @@
 
 A folder of videos carries a manifest, `videos.csv` (file, frequency_hz, ball_diameter_mm,
 balls; optional fps and mm_per_px where a video has no capture sidecar).  Each video is
-tracked once (the table is kept beside it as `<file>.track.csv`) and reduced to an
+tracked once (one per core at a time; the table is kept beside it as `<file>.track.csv`) and reduced to an
 observation: mean frame-to-frame ball speed and video collisions per second, counted exactly
 as lab.summarise counts them on simulated trajectories.
 
@@ -26,9 +26,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from joblib import Parallel, delayed
 
 from .columns import add_frame_velocities
 from .config import CalibrationConfig, ConfigError, InteractionConfig, MM400Config, SimConfig, one_line
+from .dem.runtime import cpu_threads
 from .lab import Condition, simulate_mm400, summarise, video_collisions
 from .vision.track import TrackerSettings, track
 
@@ -78,21 +80,31 @@ def observe(tracked: pd.DataFrame, fps: float, jump_m_per_s: float) -> dict:
             "frames": int(tracked.frame.nunique()), "lost_ball_frames": int(tracked.lost.sum())}
 
 
+def tracked(video: Path, balls: int, ball_diameter_mm: float, fps: float | None,
+            mm_per_px: float | None) -> pd.DataFrame:
+    """The video's tracker table: tracked once, then kept beside it as `<file>.track.csv`."""
+    cached = video.with_name(video.name + ".track.csv")
+    table = pd.read_csv(cached) if cached.exists() else None
+    if table is None or not TRACK_COLUMNS <= set(table.columns):  # none yet, or of an older tracker
+        log.info("tracking %s", video)
+        table = track(video, TrackerSettings(balls=balls, ball_diameter_mm=ball_diameter_mm), fps=fps,
+                      mm_per_px=mm_per_px)
+        table.to_csv(cached, index=False)
+    return table
+
+
 def observations(folder: str | Path, lab: MM400Config) -> pd.DataFrame:
-    """One row per video of the manifest: its condition and what tracking measured."""
+    """One row per video of the manifest: its condition and what tracking measured (the videos
+    tracked side by side, one per core)."""
     folder = Path(folder)
+    manifest = read_manifest(folder)
+    given = [tuple(None if pd.isna(x) else float(x) for x in (getattr(v, "fps", None), getattr(v, "mm_per_px", None)))
+             for v in manifest.itertuples()]
+    tables = Parallel(n_jobs=min(cpu_threads(0), len(manifest)))(
+        delayed(tracked)(folder / v.file, int(v.balls), float(v.ball_diameter_mm), fps, mm_per_px)
+        for v, (fps, mm_per_px) in zip(manifest.itertuples(), given))
     rows = []
-    for v in read_manifest(folder).itertuples():
-        video = folder / v.file
-        cached = video.with_name(video.name + ".track.csv")
-        fps, mm_per_px = (None if pd.isna(x) else float(x) for x in (getattr(v, "fps", None),
-                                                                      getattr(v, "mm_per_px", None)))
-        table = pd.read_csv(cached) if cached.exists() else None
-        if table is None or not TRACK_COLUMNS <= set(table.columns):  # none yet, or of an older tracker
-            log.info("tracking %s", video)
-            table = track(video, TrackerSettings(balls=int(v.balls), ball_diameter_mm=float(v.ball_diameter_mm)),
-                          fps=fps, mm_per_px=mm_per_px)
-            table.to_csv(cached, index=False)
+    for v, table, (fps, _) in zip(manifest.itertuples(), tables, given):
         fps = fps or 1.0 / np.median(np.diff(np.sort(table.t_s.unique())))
         rows.append({"file": v.file, "balls": int(v.balls), "frequency_hz": float(v.frequency_hz),
                      "ball_diameter_m": float(v.ball_diameter_mm) / 1e3,
