@@ -331,9 +331,11 @@ def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
 
 def settle_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
     """Hash of what determines the charge at rest before the drum turns: dem_key's inputs but
-    the drum's speed and the run's length and averaging."""
-    return dem_key(replace(drum, speed_rpm=None, fraction_of_critical=1.0), materials, interactions,
-                   replace(sim, duration_s=1.0, steady_after_s=0.0, power_se_target=None))
+    the drum's speed and the run's length and averaging, and the neighbour skin (which sizes
+    the saved cell grid)."""
+    still = dem_key(replace(drum, speed_rpm=None, fraction_of_critical=1.0), materials, interactions,
+                    replace(sim, duration_s=1.0, steady_after_s=0.0, power_se_target=None))
+    return hashlib.sha256(f"{still} skin {sim.neighbour_skin!r}".encode()).hexdigest()[:16]
 
 
 def settled_bed(drum: DrumConfig, materials, interactions, sim: SimConfig, dt: float,
@@ -382,7 +384,9 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
              100 * dt / spec.rayleigh_timestep_s(), "grid" if engine.use_grid else "all-pairs",
              engine.launch, steps * spec.n_particles,
              steps * spec.n_particles / TYPICAL_RATE / 60, TYPICAL_RATE)
-    checkpoint = Checkpoint(out_dir / "checkpoint.npz", sim.checkpoint_every_s, key) if sim.checkpoint_every_s else None
+    # the skin sizes the saved cell grid: a checkpoint of another skin is not this run's
+    checkpoint = (Checkpoint(out_dir / "checkpoint.npz", sim.checkpoint_every_s, f"{key} skin {sim.neighbour_skin!r}")
+                  if sim.checkpoint_every_s else None)
     after = sim.settle_s + sim.steady_after_s
     end = sim.settle_s + sim.duration_s
     sinks = (ParquetSink(out_dir), *((VtkWriter(out_dir, sim.vtk_every),) if sim.vtk_every else ()))
