@@ -57,3 +57,15 @@ def test_all_cores_are_shared_among_the_jobs_a_sweep_runs_at_once_here(monkeypat
     assert cpu_threads(0) == cores
     monkeypatch.setenv(LOCAL_JOBS_ENV, "2")
     assert cpu_threads(0) == max(1, cores // 2)
+
+
+def test_a_sequential_sweep_gives_each_job_every_core_and_a_parallel_one_shares_them(monkeypatch):
+    from ballmill.dem.runtime import LOCAL_JOBS_ENV
+    from ballmill.jobs import check_jobs
+
+    monkeypatch.delenv(LOCAL_JOBS_ENV, raising=False)
+    sweep = ["study=drum", "mill.fraction_of_critical=0.3,0.5,0.7"]
+    check_jobs(sweep, multirun=True)  # Hydra's basic launcher: one job after another
+    assert os.environ[LOCAL_JOBS_ENV] == "1"
+    check_jobs([*sweep, "hydra/launcher=processes"], multirun=True)  # two at a time
+    assert os.environ[LOCAL_JOBS_ENV] == "2"

@@ -57,7 +57,8 @@ def check_jobs(overrides: list[str], multirun: bool) -> Path | None:
     jobs, sweep_dir = expand(overrides, multirun)
     launcher = compose("config", jobs[0], hydra=True).hydra.launcher
     if runs_here(launcher) and len(jobs) > 1:  # sim.threads=0 then shares the cores among the jobs at once
-        os.environ[LOCAL_JOBS_ENV] = str(min(len(jobs), int(launcher.get("n_jobs") or os.cpu_count() or 1)))
+        at_once = 1 if "BasicLauncher" in launcher.get("_target_", "") else launcher.get("n_jobs") or os.cpu_count()
+        os.environ[LOCAL_JOBS_ENV] = str(min(len(jobs), int(at_once or 1)))
     for job in jobs:
         try:
             scenario = load(compose("config", job))
