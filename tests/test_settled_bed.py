@@ -39,3 +39,21 @@ def test_another_charge_settles_on_its_own(tmp_path, caplog):
         simulate_drum(small_drum(), MATERIALS, PAIRS, replace(SIM, seed=SIM.seed + 1), tmp_path / "other", beds)
     assert "starting from the settled bed" not in caplog.text
     assert len(list(beds.glob("*.npz"))) == 2
+
+
+def test_a_bed_saved_on_a_sample_step_keeps_that_sample(tmp_path, monkeypatch):
+    import ballmill.drum as drum_module
+
+    made = drum_module.settled_bed
+
+    def on_a_sample(drum, materials, interactions, sim, dt, beds_dir):
+        bed = made(drum, materials, interactions, sim, dt, beds_dir)
+        per_sample = round(sim.sample_every_s / dt)
+        return bed and replace(bed, step=bed.step // per_sample * per_sample)
+
+    monkeypatch.setattr(drum_module, "settled_bed", on_a_sample)
+    beds = tmp_path / "beds"
+    simulate_drum(small_drum(), MATERIALS, PAIRS, SIM, tmp_path / "first", beds)
+    reused = simulate_drum(small_drum(), MATERIALS, PAIRS, replace(SIM, duration_s=0.25), tmp_path / "reused", beds)
+    alone = simulate_drum(small_drum(), MATERIALS, PAIRS, replace(SIM, duration_s=0.25), tmp_path / "alone")
+    pd.testing.assert_frame_equal(reused.results.loads, alone.results.loads, check_exact=True)

@@ -2,9 +2,9 @@
 
 A folder of videos carries a manifest, `videos.csv` (file, frequency_hz, ball_diameter_mm,
 balls; optional fps and mm_per_px where a video has no capture sidecar).  Each video is
-tracked once (one per core at a time; the table is kept beside it as `<file>.track.csv`) and reduced to an
-observation: mean frame-to-frame ball speed and video collisions per second, counted exactly
-as lab.summarise counts them on simulated trajectories.
+tracked once (one per core at a time; the table is kept beside it as `<file>.track.csv`) and
+reduced to an observation: mean frame-to-frame ball speed and video collisions per second,
+counted exactly as lab.summarise counts them on simulated trajectories.
 
 Grid search: every (restitution, friction) pair of the grid runs every observed condition,
 all as replicas of one Taichi launch per ball count; the score of a pair is the mean over

@@ -307,8 +307,8 @@ class Engine:
         n_samples = max(1, round(duration_s / (per_sample * self.dt)))
         start = self.step_index
         first = checkpoint.resume(self, recorder, label) if checkpoint else 0
-        if not first and bed is not None and bed.restore(self, recorder):
-            first = (self.step_index - start) // per_sample
+        if not first and bed is not None and bed.restore(self, recorder):  # saved before its step's sample
+            first = (self.step_index - start - 1) // per_sample
         saved_at = self.time_s
         bar = tqdm(total=n_samples, initial=first, desc=label, unit="sample",
                    disable=not sys.stderr.isatty())
