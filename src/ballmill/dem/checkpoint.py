@@ -125,9 +125,10 @@ class SettledBed:
     path: Path
     key: str
     step: int
+    WITHOUT = ("mo",)  # the engine's wall motions: each run's own
 
     def save(self, engine, recorder) -> None:
-        write_state(self.path, {"key": self.key, "step": self.step, "engine": engine.state(without=("mo",)),
+        write_state(self.path, {"key": self.key, "step": self.step, "engine": engine.state(self.WITHOUT),
                                 "recorder": recorder.samples()}, compress=True)
         log.info("saved the settled bed (t=%.4f s) to %s", engine.time_s, self.path)
 
@@ -136,7 +137,7 @@ class SettledBed:
         payload = read_state(self.path)
         if payload is None or payload.get("key") != self.key or payload.get("step") != self.step:
             return False
-        engine.restore(payload["engine"])
+        engine.restore(payload["engine"], self.WITHOUT)
         recorder.restore_samples(payload["recorder"])
         log.info("starting from the settled bed in %s (t=%.4f s), saved by an earlier run of this vessel and "
                  "charge", self.path, engine.time_s)

@@ -353,13 +353,13 @@ class Engine:
                 "step_index": self.step_index, "accumulated_steps": self._accumulated_steps,
                 "initial_energy_j": self.initial_energy_j}
 
-    def restore(self, state: dict) -> None:
-        """Set the fields the state holds, and the counters.  The neighbour list is rebuilt
-        before the next step: the state may come from a run with another skin or launch, and
-        when the list is rebuilt does not change the results (tests/test_neighbour_list.py)."""
-        for name, f in self._state_fields():
-            if name in state["fields"]:
-                f.from_numpy(state["fields"][name])
+    def restore(self, state: dict, without: tuple[str, ...] = ()) -> None:
+        """Set the fields of every part (but those in `without`, which the state left out) and the
+        counters.  The neighbour list is rebuilt before the next step: the state may come from a
+        run with another launch, and when the list is rebuilt does not change the results
+        (tests/test_neighbour_list.py)."""
+        for name, f in self._state_fields(without):
+            f.from_numpy(state["fields"][name])
         self.step_index = state["step_index"]
         self._accumulated_steps, self.initial_energy_j = state["accumulated_steps"], state["initial_energy_j"]
         self.nl.due.fill(1)
