@@ -98,13 +98,15 @@ def test_same_seed_same_config_gives_identical_results(tmp_path):
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "a/loads.parquet"), b.results.loads)
 
 
-def test_energy_balance_closes_up_to_a_first_order_integration_error(tmp_path):
-    """Work of the drum = change of kinetic + potential + elastic energy + dissipation, up to the
-    integration error of booking powers at the half-kicked velocity: it halves with the step."""
+def test_energy_balance_closes_whatever_the_step(tmp_path):
+    """Work of the drum = change of kinetic + potential + elastic energy + dissipation.  The
+    contacts book the step's mean force at the half-step velocity, as the integrator applies it,
+    so the balance closes to < 0.1 % even at twice the study's step (booking the force at its
+    own step left 1-5 %, growing with the step)."""
     import pandas as pd
 
     residual, rates = {}, {}
-    for fraction in (0.1, 0.05):
+    for fraction in (0.4, 0.1):
         sim = replace(SIM, dt_fraction=fraction)
         simulate_drum(small_drum("analytic"), MATERIALS, PAIRS, sim, tmp_path / str(fraction))
         e = pd.read_parquet(tmp_path / str(fraction) / "energy.parquet")
@@ -112,8 +114,8 @@ def test_energy_balance_closes_up_to_a_first_order_integration_error(tmp_path):
         residual[fraction] = abs(e.residual_j.iloc[-1]) / e.wall_work_j.iloc[-1]
         late = e.t_s > 0.8  # turning steadily: drive power = dissipation rate
         rates[fraction] = np.polyfit(e.t_s[late], e.wall_work_j[late], 1)[0], np.polyfit(e.t_s[late], lost[late], 1)[0]
-    assert residual[0.1] < 0.03
-    assert residual[0.05] == pytest.approx(residual[0.1] / 2, rel=0.25)
-    drive, dissipation = rates[0.05]
+    assert residual[0.4] < 1e-3
+    assert residual[0.1] < 3e-4
+    drive, dissipation = rates[0.1]
     assert drive > 10  # W: the drum does drive the charge
     assert dissipation == pytest.approx(drive, rel=0.03)

@@ -94,6 +94,20 @@ def test_fixed_point_follows_a_rate_that_grows_with_the_mill_and_fails_clearly()
         solve_residence_time(20.0, 1e6, lambda tau: (0.0, 0.0), 0.01, 8)
 
 
+def test_fixed_point_stops_when_the_bracket_is_inside_the_rates_noise():
+    """A rate that jumps +-6 % from run to run (standard error 5 %) cannot place the root to 0.1 %:
+    the search stops once the bracket is narrower than twice that error, near the true root."""
+    calls = []
+
+    def noisy(tau):
+        calls.append(tau)
+        return 10 * tau**0.3 * (1 + 0.06 * (-1) ** len(calls)), 0.5 * tau**0.3
+
+    fp = solve_residence_time(20.0, 1e6, noisy, 0.001, 12)
+    assert fp.iterations < 12
+    assert fp.residence_time_min == pytest.approx((1e6 / 600) ** (1 / 1.3), rel=0.1)
+
+
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory):
     """A cache folder holding a short lab calibration (one frequency, one ball size, 1 and 2 balls)."""

@@ -124,8 +124,9 @@ def solve_residence_time(start_min: float, dose_target_j_per_kg: float, rate_at:
     sizes.  On log tau: a plain step first, then secant steps (each at most threefold up or down,
     so that a far first guess does not ask for a huge mill), and once the root is bracketed,
     regula falsi inside the bracket (a DEM's rate is a rough function of the mill).  It stops when
-    the next tau moves by less than `tolerance` (relative), or the bracket is that narrow; the
-    answer is the simulated tau closest to its own fixed point."""
+    the next tau moves by less than `tolerance` (relative), or the bracket is that narrow or
+    narrower than twice its ends' relative standard error (no DEM run can place the root better
+    than its rate's noise); the answer is the simulated tau closest to its own fixed point."""
     tried: list[tuple[float, float, float, float]] = []  # (log tau, log(next tau / tau), relative se, tau)
     for k in range(1, max_iterations + 1):
         tau = start_min if not tried else math.exp(next_log_tau(tried))
@@ -136,7 +137,11 @@ def solve_residence_time(start_min: float, dose_target_j_per_kg: float, rate_at:
         tried.append((math.log(tau), math.log(dose_target_j_per_kg / dose_j_per_kg(rate, tau)), se / rate, tau))
         above = [t for t in tried if t[1] > 0]
         below = [t for t in tried if t[1] <= 0]
-        narrow = above and below and abs(max(above)[0] - min(below)[0]) < math.log1p(tolerance)
+        if above and below:
+            hi, lo = max(above), min(below)
+            narrow = abs(hi[0] - lo[0]) < math.log1p(max(tolerance, 2.0 * max(hi[2], lo[2])))
+        else:
+            narrow = False
         if abs(math.expm1(tried[-1][1])) < tolerance or narrow:
             best = min(tried, key=lambda t: abs(t[1]))
             return FixedPoint(best[3], k, [t[3] for t in tried], best[3] * best[2], math.expm1(-best[1]))

@@ -60,9 +60,7 @@ def hertz_mindlin(delta, n, v_rel, xi, m_eff, r_eff, e_star, g_star, zeta, mu_s,
     length kept), damped like the normal; when |S_t xi| > mu_s F_n the contact slides: the
     spring force is scaled to the cap, xi reset to match and damping dropped (LIGGGHTS
     tangential_model history).  Returns F_n >= 0, the tangential force on a, the new xi and
-    energy terms: the power dissipated by normal damping (W), the power the relative motion
-    puts into the tangential spring, damper and slider, -F_t . v_t (W), the Hertz energy
-    2/5 F_el delta and the spring energy 1/2 S_t |xi|^2 (J).
+    the energy stored now: Hertz 2/5 F_el delta and spring 1/2 S_t |xi|^2 (J).
     """
     sqrt_rd = ti.sqrt(r_eff * delta)
     s_n = 2.0 * e_star * sqrt_rd
@@ -85,8 +83,25 @@ def hertz_mindlin(delta, n, v_rel, xi, m_eff, r_eff, e_star, g_star, zeta, mu_s,
     if f_spring_len > f_cap:
         f_t = f_spring * (f_cap / f_spring_len)
         xi_new = -f_t / s_t
-    energy = ti.Vector([(fn - f_elastic) * v_n, -f_t.dot(v_t), 0.4 * f_elastic * delta, 0.5 * s_t * xi_new.dot(xi_new)])
-    return fn, f_t, xi_new, energy
+    stored = ti.Vector([0.4 * f_elastic * delta, 0.5 * s_t * xi_new.dot(xi_new)])
+    return fn, f_t, xi_new, stored
+
+
+@ti.func
+def absorbed_power(f_then, f_now, n, v_rel):
+    """Power the relative motion puts into a contact over the step just taken, normal and
+    tangential (W): -F . v_rel with F the mean of the force on a at the last step and now.
+
+    Velocity Verlet applies each step's force over two half kicks, around the half-step
+    velocity v_rel; the mean force at that velocity is what changes the kinetic energy, so a
+    collision's absorbed energy summed this way is its kinetic-energy loss but for half a step
+    at the last, near-zero force (booking F_now . v_rel instead overstates the loss by a share
+    ~ zeta omega dt: 2 % at 20 % of the Rayleigh step, 5 % at 40 %).
+    """
+    f = 0.5 * (f_then + f_now)
+    v_n = v_rel.dot(n)
+    p_n = -f.dot(n) * v_n
+    return ti.Vector([p_n, -f.dot(v_rel) - p_n])
 
 
 @ti.func

@@ -4,9 +4,11 @@ Cumulative since the engine was built (J): work done by the walls (contact force
 wall's contact-point velocity plus rolling torque at the wall's spin), energy dissipated by
 normal damping, tangentially and by rolling friction; and the elastic energy stored in the
 particle's contacts now (Hertz plus tangential spring; a pair's is booked on its lower id).
-Tangential dissipation is what the relative motion puts into the tangential contact
-(-F_t . v_t) less the change of the springs' energy: damping, Coulomb sliding, and the
-energy a Mindlin spring loses as its stiffness falls with the overlap or its contact opens.
+Normal and tangential dissipation are what the relative motion puts into the contact
+(contact.absorbed_power: the step's mean force at the half-step velocity, as the integrator
+applies it) less the change of the Hertz and the springs' energy: damping, Coulomb sliding,
+and the energy a Mindlin spring loses as its stiffness falls with the overlap or its contact
+opens.  Booked so, the balance closes to second order in the step (tests/test_system_physics).
 Summed per replica in particle order, so the totals are as deterministic as the run.
 """
 
@@ -35,8 +37,9 @@ class EnergyBook:
 
     @ti.func
     def hold(self, i, hertz, spring, elastic: ti.template(), springs: ti.template()):
-        """Energy now in i's contacts of one kind (J); the springs' change is not dissipated."""
+        """Energy now in i's contacts of one kind (J); its change is stored, not dissipated."""
         c = self.cumulative[i]
+        c[1] -= hertz - (elastic[i] - springs[i])
         c[2] -= spring - springs[i]
         self.cumulative[i] = c
         springs[i] = spring

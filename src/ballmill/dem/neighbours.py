@@ -45,7 +45,8 @@ class NeighbourList:
         self.xi = ti.Vector.field(3, float, (n, k))
         self.vn0 = ti.field(float, (n, k))
         self.ed = ti.field(float, (n, k))
-        # per open contact: force on i and torque on j; per particle: sums over its own list
+        # per open contact: force on i (kept to the next step, history too) and torque on j;
+        # per particle: sums over its own list
         self.f = ti.Vector.field(3, float, (n, k))
         self.t_j = ti.Vector.field(3, float, (n, k))
         self.f_own = ti.Vector.field(3, float, n)
@@ -56,6 +57,7 @@ class NeighbourList:
         self.new_xi = ti.Vector.field(3, float, (n, k))
         self.new_vn0 = ti.field(float, (n, k))
         self.new_ed = ti.field(float, (n, k))
+        self.new_f = ti.Vector.field(3, float, (n, k))
         self.x_ref = ti.Vector.field(3, float, n)
         self.due = ti.field(ti.i32, reps)  # 1: rebuild the replica's list before its next step
         self.any_due = ti.field(ti.i32, ())
@@ -157,15 +159,15 @@ class NeighbourList:
         for c in range(cnt):
             j = self.new_j[i, c]
             self.new_start[i, c] = -1
-            self.new_xi[i, c] = ti.Vector([0.0, 0.0, 0.0])
+            self.new_xi[i, c], self.new_f[i, c] = ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0, 0.0])
             self.new_vn0[i, c], self.new_ed[i, c] = 0.0, 0.0
             for s in range(self.nb_n[i]):
                 if self.nb_j[i, s] == j:
                     self.new_start[i, c], self.new_xi[i, c] = self.start[i, s], self.xi[i, s]
-                    self.new_vn0[i, c], self.new_ed[i, c] = self.vn0[i, s], self.ed[i, s]
+                    self.new_vn0[i, c], self.new_ed[i, c], self.new_f[i, c] = self.vn0[i, s], self.ed[i, s], self.f[i, s]
         for c in range(cnt):
             self.nb_j[i, c], self.start[i, c], self.xi[i, c] = self.new_j[i, c], self.new_start[i, c], self.new_xi[i, c]
-            self.vn0[i, c], self.ed[i, c] = self.new_vn0[i, c], self.new_ed[i, c]
+            self.vn0[i, c], self.ed[i, c], self.f[i, c] = self.new_vn0[i, c], self.new_ed[i, c], self.new_f[i, c]
         self.nb_n[i], self.rv_n[i] = cnt, low
         self.x_ref[i] = self.p.x[i]
 

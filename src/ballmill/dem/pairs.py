@@ -2,7 +2,7 @@
 
 import taichi as ti
 
-from .contact import rolling_torque
+from .contact import absorbed_power, rolling_torque
 
 
 @ti.data_oriented
@@ -34,22 +34,24 @@ class PairContacts:
                 n = d / dist  # from i towards j
                 ca, cb = p.rad[i] - 0.5 * delta, p.rad[j] - 0.5 * delta
                 v_rel = p.v[i] + p.w[i].cross(ca * n) - p.v[j] + p.w[j].cross(cb * n)
-                start, xi, vn0, ed = nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s]
+                start, xi, vn0, ed, f_then = nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s], nl.f[i, s]
                 if start < 0:  # a new contact
-                    start, xi, vn0, ed = k, zero, v_rel.dot(n), 0.0
+                    start, xi, vn0, ed, f_then = k, zero, v_rel.dot(n), 0.0, zero
                 r, ma, mb = p.rep[i], p.mat[i], p.mat[j]
                 m_eff = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j])
                 r_eff = p.rad[i] * p.rad[j] / sum_r
-                fn, ft, xi, e = self.tables.law(r, ma, mb, delta, n, v_rel, xi, m_eff, r_eff, dt)
+                fn, ft, xi, stored = self.tables.law(r, ma, mb, delta, n, v_rel, xi, m_eff, r_eff, dt)
                 mu_r = self.tables.mu_r[r, ma, mb]
                 roll = rolling_torque(fn, mu_r, 1.0, p.w[i] - p.w[j])  # per metre of radius
                 roll_a, roll_b = p.rad[i] * roll, -p.rad[j] * roll
                 loss_r = -(roll_a.dot(p.w[i]) + roll_b.dot(p.w[j]))
-                energy += ti.Vector([e[0], e[1], loss_r, e[2], e[3]])
+                f_now = -fn * n + ft
+                e = absorbed_power(f_then, f_now, n, v_rel)
+                energy += ti.Vector([e[0], e[1], loss_r, stored[0], stored[1]])
                 self.monitor.overlap(delta / ti.min(p.rad[i], p.rad[j]))
                 nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s] = start, xi, vn0, ed + (e[0] + e[1] + loss_r) * dt
-                nl.f[i, s] = -fn * n + ft
-                f_i += nl.f[i, s]
+                nl.f[i, s] = f_now
+                f_i += f_now
                 t_i += (ca * n).cross(ft) + roll_a
                 nl.t_j[i, s] = (cb * n).cross(ft) + roll_b
             elif nl.start[i, s] >= 0:  # the contact ended at this step

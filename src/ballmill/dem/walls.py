@@ -13,7 +13,7 @@ import math
 import numpy as np
 import taichi as ti
 
-from .contact import closest_point_on_triangle, rolling_torque, wall_geometry
+from .contact import absorbed_power, closest_point_on_triangle, rolling_torque, wall_geometry
 from .geometry import CAPSULE, CYLINDER, PLANE, Capsule, Cylinder, Mesh, Plane
 from .monitor import WALL_CONTACTS
 from .motion import unit
@@ -37,6 +37,7 @@ class Walls:
         self.c_start = ti.field(ti.i32, (2, n, k))
         self.c_vn = ti.field(float, (2, n, k))
         self.c_ed = ti.field(float, (2, n, k))
+        self.c_f = ti.Vector.field(3, float, (2, n, k))  # force on the particle at that step
         self.acc_f = ti.Vector.field(3, float, (n, b))
         self.acc_tq = ti.Vector.field(3, float, (n, b))
         self.acc_tq_roll = ti.Vector.field(3, float, (n, b))
@@ -131,13 +132,14 @@ class Walls:
         return slot
 
     @ti.func
-    def store(self, i, new, cnt, key, xi, start, vn, ed):
+    def store(self, i, new, cnt, key, xi, start, vn, ed, f):
         if cnt < self.k_max:
             self.c_key[new, i, cnt] = key
             self.c_xi[new, i, cnt] = xi
             self.c_start[new, i, cnt] = start
             self.c_vn[new, i, cnt] = vn
             self.c_ed[new, i, cnt] = ed
+            self.c_f[new, i, cnt] = f
         else:
             self.monitor.overflow[None] = WALL_CONTACTS
         return cnt + 1
@@ -165,16 +167,17 @@ class Walls:
         v_wall = mo.velocity_at(r, b, c)
         arm = c - p.x[i]
         v_rel = p.v[i] + p.w[i].cross(arm) - v_wall
-        xi = ti.Vector([0.0, 0.0, 0.0])
+        xi, f_then = ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0, 0.0])
         start, vn0, ed = k, v_rel.dot(n), 0.0
         if slot >= 0:
-            xi = self.c_xi[old, i, slot]
+            xi, f_then = self.c_xi[old, i, slot], self.c_f[old, i, slot]
             start, vn0, ed = self.c_start[old, i, slot], self.c_vn[old, i, slot], self.c_ed[old, i, slot]
         mi = p.mat[i]
-        fn, ft, xi, e = self.tables.law(r, mi, mat, delta, n, v_rel, xi, p.mass[i], p.rad[i], p.dt[None])
+        fn, ft, xi, stored = self.tables.law(r, mi, mat, delta, n, v_rel, xi, p.mass[i], p.rad[i], p.dt[None])
         roll = rolling_torque(fn, self.tables.mu_r[r, mi, mat], p.rad[i], p.w[i] - w_wall)
         f_i = -fn * n + ft
         power, power_roll = f_i.dot(v_wall), roll.dot(w_wall)
+        e = absorbed_power(f_then, f_i, n, v_rel)
         # accumulators of i, written by i's thread only: plain stores, not atomics
         self.acc_f[i, b] = self.acc_f[i, b] - f_i
         self.acc_tq[i, b] = self.acc_tq[i, b] + mo.lever(r, b, c).cross(-f_i)
@@ -182,10 +185,10 @@ class Walls:
         self.acc_pw[i, b] = self.acc_pw[i, b] + power
         self.acc_pw_roll[i, b] = self.acc_pw_roll[i, b] + power_roll
         loss_r = -roll.dot(p.w[i] - w_wall)
-        self.book.add(i, power + power_roll, e[0], e[1], loss_r)
+        self.book.add(i, 0.5 * (f_then + f_i).dot(v_wall) + power_roll, e[0], e[1], loss_r)
         self.monitor.overlap(delta / p.rad[i])
-        cnt = self.store(i, new, cnt, key, xi, start, vn0, ed + (e[0] + e[1] + loss_r) * p.dt[None])
-        return f_i, arm.cross(ft) + roll, ti.Vector([e[2], e[3]]), cnt
+        cnt = self.store(i, new, cnt, key, xi, start, vn0, ed + (e[0] + e[1] + loss_r) * p.dt[None], f_i)
+        return f_i, arm.cross(ft) + roll, stored, cnt
 
     @ti.func
     def mesh_slot(self, i, old, key, m, xb):
