@@ -1,14 +1,17 @@
 """Energy bookkeeping: per particle, what the walls put in and what the contacts dissipated.
 
-Cumulative since the engine was built (J): work done by the walls (contact force at the
-wall's contact-point velocity plus rolling torque at the wall's spin), energy dissipated by
+Cumulative since the engine was built (J): work done by the walls (the step's mean contact
+force at the wall's contact-point velocity plus rolling torque at the wall's spin), energy dissipated by
 normal damping, tangentially and by rolling friction; and the elastic energy stored in the
 particle's contacts now (Hertz plus tangential spring; a pair's is booked on its lower id).
 Normal and tangential dissipation are what the relative motion puts into the contact
 (contact.absorbed_power: the step's mean force at the half-step velocity, as the integrator
 applies it) less the change of the Hertz and the springs' energy: damping, Coulomb sliding,
 and the energy a Mindlin spring loses as its stiffness falls with the overlap or its contact
-opens.  Booked so, the balance closes to second order in the step (tests/test_system_physics).
+opens.  Booked so, the balance closes to < 0.1 % of the input even at 40 % of the Rayleigh
+step (tests/test_system_physics); what is left is still first order in the step, a tenth of
+it rolling friction (booked at the half-step spin), the rest not isolated (likely each
+contact's unbooked last half step and the lever arms' change over a step).
 Summed per replica in particle order, so the totals are as deterministic as the run.
 """
 
