@@ -70,8 +70,8 @@ class SimConfig:
     trajectory_every: int = rng(0, 0, None, doc="record particle states every n samples (0: never)")
     vtk_every: int = rng(0, 0, None, doc="write ParaView files (particles, walls) every n samples (0: never)")
     max_contacts_per_particle: int = rng(16, 1, None, doc="neighbour-list and wall-contact slots per particle")
-    checkpoint_every_s: float | None = rng(1.0, 0.0, None, lo_open=True,
-                                           doc="simulated time between checkpoints of a drum run (s); null: none")
+    checkpoint_every_wall_s: float | None = rng(60.0, 0.0, None, lo_open=True, doc=(
+        "wall-clock time between checkpoints of a drum run (s; a run shorter than this writes none); null: none"))
     neighbour_skin: float = rng(0.5, 0.0, None, lo_open=True,
                                 doc="Verlet skin / largest ball radius (larger: fewer list rebuilds, more candidates)")
     event_capacity: int = rng(200_000, 1, None, doc="collisions held between two samples")

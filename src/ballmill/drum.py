@@ -232,7 +232,7 @@ def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, 
     )
 
 
-UNKEYED_SIM_FIELDS = ("threads", "neighbour_skin", "launch", "checkpoint_every_s", "progress_every_s")
+UNKEYED_SIM_FIELDS = ("threads", "neighbour_skin", "launch", "checkpoint_every_wall_s", "progress_every_s")
 
 
 def check_stl(path: str) -> None:
@@ -385,8 +385,8 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
              engine.launch, steps * spec.n_particles,
              steps * spec.n_particles / TYPICAL_RATE / 60, TYPICAL_RATE)
     # the skin sizes the saved cell grid: a checkpoint of another skin is not this run's
-    checkpoint = (Checkpoint(out_dir / "checkpoint.npz", sim.checkpoint_every_s, f"{key} skin {sim.neighbour_skin!r}")
-                  if sim.checkpoint_every_s else None)
+    checkpoint = (Checkpoint(out_dir / "checkpoint.npz", sim.checkpoint_every_wall_s,
+                             f"{key} skin {sim.neighbour_skin!r}") if sim.checkpoint_every_wall_s else None)
     after = sim.settle_s + sim.steady_after_s
     end = sim.settle_s + sim.duration_s
     sinks = (ParquetSink(out_dir), *((VtkWriter(out_dir, sim.vtk_every),) if sim.vtk_every else ()))

@@ -88,11 +88,11 @@ def read_state(path: Path) -> dict | None:
 
 @dataclass(frozen=True)
 class Checkpoint:
-    """Where and how often (simulated seconds) a run saves itself; `key` names what it simulates
+    """Where and how often (wall-clock seconds) a run saves itself; `key` names what it simulates
     (a checkpoint of another key or run label is ignored)."""
 
     path: Path
-    every_s: float
+    every_wall_s: float
     key: str
 
     def save(self, engine, recorder, next_sample: int, label: str) -> None:

@@ -298,7 +298,8 @@ class Engine:
             label: str = "run", checkpoint: Checkpoint | None = None, phases: tuple = (),
             stop: Callable[[], bool] | None = None, bed: SettledBed | None = None) -> Results:
         """Advance by duration_s, sampling every sample_every_s (rounded to whole steps); with a
-        checkpoint, continue an interrupted run from it and save one every checkpoint.every_s;
+        checkpoint, continue an interrupted run from it and save one every checkpoint.every_wall_s
+        of wall-clock time (at a sample: where it falls changes no result);
         `stop()`, asked after every sample, ends the run early when it returns True; with a
         settled bed, start from it when one was saved, else save it on the way at its step.
 
@@ -311,10 +312,9 @@ class Engine:
         first = checkpoint.resume(self, recorder, label) if checkpoint else 0
         if not first and bed is not None and bed.restore(self, recorder):  # saved before its step's sample
             first = (self.step_index - start - 1) // per_sample
-        saved_at = self.time_s
         bar = tqdm(total=n_samples, initial=first, desc=label, unit="sample",
                    disable=not sys.stderr.isatty())
-        t_wall, last_log = time.perf_counter(), time.perf_counter()
+        t_wall = last_log = saved_at = time.perf_counter()
         for s in range(first, n_samples):
             target = start + (s + 1) * per_sample
             if bed is not None and self.step_index < bed.step <= target:
@@ -323,10 +323,10 @@ class Engine:
             self.advance(target - self.step_index)
             self.check()
             recorder.sample(self)
-            if checkpoint and s < n_samples - 1 and self.time_s - saved_at >= checkpoint.every_s - 0.5 * self.dt:
-                checkpoint.save(self, recorder, s + 1, label)
-                saved_at = self.time_s
             now = time.perf_counter()
+            if checkpoint and s < n_samples - 1 and now - saved_at >= checkpoint.every_wall_s:
+                checkpoint.save(self, recorder, s + 1, label)
+                saved_at = now
             rate = (s + 1 - first) * per_sample * self.n / (now - t_wall)
             phase = next((name for start, name in reversed(phases) if self.time_s >= start), "")
             bar.set_postfix_str(f"t={self.time_s:.3f} s {phase}, {rate:.3g} particle-steps/s", refresh=False)

@@ -86,3 +86,31 @@ def read_frames(path: str | Path) -> Iterator[np.ndarray]:
             break
         yield frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
     cap.release()
+
+
+def spread_frames(path: str | Path, n: int) -> list[np.ndarray]:
+    """About n greyscale frames evenly spaced through a video or folder (between n and 2n when the
+    video does not tell its length); a video is sought, not decoded, between them."""
+    path = Path(path)
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        picks = [files[k] for k in np.unique(np.linspace(0, len(files) - 1, n).round().astype(int))] if files else []
+        return [f for f in (cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) for f in picks) if f is not None]
+    cap = cv2.VideoCapture(str(path))
+    count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
+    keep = []
+    for k in np.unique(np.linspace(0, count - 1, n).round().astype(int)) if count > 0 else ():
+        cap.set(cv2.CAP_PROP_POS_FRAMES, int(k))
+        ok, frame = cap.read()
+        if ok:
+            keep.append(frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
+    cap.release()
+    if keep:
+        return keep
+    stride = 1  # a stream of unknown length: keep every stride-th frame, halving when 2n are held
+    for k, frame in enumerate(read_frames(path)):
+        if k % stride == 0:
+            keep.append(frame)
+            if len(keep) == 2 * n:
+                keep, stride = keep[::2], stride * 2
+    return keep

@@ -16,10 +16,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pandas as pd
+from joblib import Parallel, delayed
 
 from ..columns import world_to_image
 from ..config import MM400Config
 from ..dem import Capsule, Motion
+from ..dem.runtime import cpu_threads
 from ..lab import Condition, jar_capsule, jar_motion
 from .frames import write_frames
 
@@ -73,38 +75,43 @@ def render(track: pd.DataFrame, radius_m: dict[int, float], jar: Capsule, motion
     the truth: each ball's centre (px) averaged over the exposure, as the image shows it.
     """
     times = np.sort(track.t_s.unique())
+    offsets = -cam.exposure_fraction / cam.fps * (1 - (np.arange(cam.blur_samples) + 0.5) / cam.blur_samples)
+    when = times[:, None] + offsets[None, :]  # (frames, sub-frame renders)
     wide = {c: track.pivot(index="t_s", columns="particle", values=c).loc[times] for c in ("x_m", "y_m", "z_m")}
     ids = list(wide["x_m"].columns)
-    offsets = -cam.exposure_fraction / cam.fps * (1 - (np.arange(cam.blur_samples) + 0.5) / cam.blur_samples)
-
-    def at(tt, p, c):
-        return np.interp(tt, times, wide[c][p])
-
-    truth = []
-    for t in times:
-        for p in ids:
-            u, v = cam.to_px(at(t + offsets, p, "x_m"), at(t + offsets, p, "z_m"))
-            truth.append({"t_s": t, "particle": p, "u_px": u.mean(), "v_px": v.mean()})
+    # every ball's centre at every sub-frame time: {coordinate: (balls, frames, renders)}
+    at = {c: np.stack([np.interp(when, times, w[p].to_numpy()) for p in ids]) for c, w in wide.items()}
+    u, v = cam.to_px(at["x_m"], at["z_m"])
+    truth = pd.DataFrame({"t_s": np.repeat(times, len(ids)), "particle": np.tile(ids, len(times)),
+                          "u_px": u.mean(axis=2).T.ravel(), "v_px": v.mean(axis=2).T.ravel()})
 
     def frames():
         rng = np.random.default_rng(cam.seed)
         canvas = np.zeros((cam.height_px, cam.width_px), np.uint8)
-        for t in times:
+        for k, t in enumerate(times):
             acc = np.zeros(canvas.shape, np.float64)
-            for tt in t + offsets:
-                far_first = sorted(ids, key=lambda p: -at(tt, p, "y_m"))
-                balls = [(at(tt, p, "x_m"), at(tt, p, "z_m"), radius_m[p]) for p in far_first]
+            for b, tt in enumerate(t + offsets):
+                far_first = np.argsort(-at["y_m"][:, k, b], kind="stable")
+                balls = [(at["x_m"][q, k, b], at["z_m"][q, k, b], radius_m[ids[q]]) for q in far_first]
                 _draw(canvas, cam, balls, motion.place(tt, jar.center_m), jar)
                 acc += canvas
             acc = acc / len(offsets) + rng.normal(0.0, cam.noise_grey, acc.shape)
             yield np.clip(np.rint(acc), 0, 255).astype(np.uint8)
 
-    return frames(), pd.DataFrame(truth)
+    return frames(), truth
+
+
+def _film(path: Path, traj: pd.DataFrame, radius_m: float, motion: Motion, jar: Capsule, cam: Camera) -> None:
+    """Render one condition's trajectory into the video at path, its truth beside it."""
+    frames, truth = render(traj, dict.fromkeys(traj.particle.unique(), radius_m), jar, motion, cam)
+    write_frames(frames, path, cam.fps, cam.mm_per_px)
+    truth.to_csv(path.with_name(f"{path.name}.truth.csv"), index=False)
 
 
 def render_lab_videos(folder: str | Path, lab: MM400Config, conds: list[Condition], trajectories: pd.DataFrame,
                       cam: Camera) -> pd.DataFrame:
-    """One video per simulated condition (after lab.settle_s), its truth table and a videos.csv manifest.
+    """One video per simulated condition (after lab.settle_s), its truth table and a videos.csv manifest
+    (the videos rendered side by side, one per core).
 
     The camera is sized to the jar's reach and runs at the lab's camera rate.
     """
@@ -114,17 +121,12 @@ def render_lab_videos(folder: str | Path, lab: MM400Config, conds: list[Conditio
     reach_m = jar.half_length_m + jar.radius_m + 2 * lab.amplitude_m
     cam = replace(cam, fps=lab.camera_fps, width_px=int(2.3 * reach_m * 1e3 / cam.mm_per_px),
                   height_px=int(3.0 * jar.radius_m * 1e3 / cam.mm_per_px))
-    rows = []
-    for k, c in enumerate(conds):
-        traj = trajectories[(trajectories.replica == k) & (trajectories.t_s > lab.settle_s)]
-        frames, truth = render(traj, {p: c.ball_diameter_m / 2 for p in traj.particle.unique()}, jar,
-                               jar_motion(lab, c.frequency_hz), cam)
-        name = f"mm400_{k:03d}.avi"
-        write_frames(frames, folder / name, cam.fps, cam.mm_per_px)
-        truth.to_csv(folder / f"{name}.truth.csv", index=False)
-        rows.append({"file": name, "frequency_hz": c.frequency_hz, "ball_diameter_mm": c.ball_diameter_m * 1e3,
-                     "balls": lab.balls_per_jar, "wall_restitution": c.wall_restitution,
-                     "wall_friction": c.wall_friction})
+    jobs = [(folder / f"mm400_{k:03d}.avi", trajectories[(trajectories.replica == k) & (trajectories.t_s > lab.settle_s)],
+             c.ball_diameter_m / 2, jar_motion(lab, c.frequency_hz)) for k, c in enumerate(conds)]
+    Parallel(n_jobs=min(cpu_threads(0), len(jobs)))(delayed(_film)(*job, jar, cam) for job in jobs)
+    rows = [{"file": path.name, "frequency_hz": c.frequency_hz, "ball_diameter_mm": c.ball_diameter_m * 1e3,
+             "balls": lab.balls_per_jar, "wall_restitution": c.wall_restitution, "wall_friction": c.wall_friction}
+            for (path, *_), c in zip(jobs, conds)]
     manifest = pd.DataFrame(rows)
     manifest.to_csv(folder / "videos.csv", index=False)
     return manifest
