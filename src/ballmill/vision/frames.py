@@ -61,20 +61,33 @@ def read_meta(path: str | Path) -> dict:
     return meta
 
 
+def _image_files(folder: Path) -> list[Path]:
+    """The folder's images, sorted by name (an error when there are none)."""
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+    if not files:
+        raise FileNotFoundError(f"video={folder}: no image files ({sorted(IMAGE_SUFFIXES)}) in the folder")
+    return files
+
+
+def _read_image(folder: Path, file: Path) -> np.ndarray:
+    frame = cv2.imread(str(file), cv2.IMREAD_GRAYSCALE)
+    if frame is None:
+        raise ConfigError(f"video={folder}: {file.name} is not a readable image")
+    return frame
+
+
+def _grey(frame: np.ndarray) -> np.ndarray:
+    return frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+
+
 def read_frames(path: str | Path) -> Iterator[np.ndarray]:
     """Greyscale frames of a video file or of the images in a folder (sorted by name)."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"video={path} does not exist")
     if path.is_dir():
-        files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
-        if not files:
-            raise FileNotFoundError(f"video={path}: no image files ({sorted(IMAGE_SUFFIXES)}) in the folder")
-        for f in files:
-            frame = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
-            if frame is None:
-                raise ConfigError(f"video={path}: {f.name} is not a readable image")
-            yield frame
+        for f in _image_files(path):
+            yield _read_image(path, f)
         return
     cap = cv2.VideoCapture(str(path))
     if not cap.isOpened():
@@ -84,7 +97,7 @@ def read_frames(path: str | Path) -> Iterator[np.ndarray]:
         ok, frame = cap.read()
         if not ok:
             break
-        yield frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+        yield _grey(frame)
     cap.release()
 
 
@@ -92,18 +105,20 @@ def spread_frames(path: str | Path, n: int) -> list[np.ndarray]:
     """About n greyscale frames evenly spaced through a video or folder (between n and 2n when the
     video does not tell its length); a video is sought, not decoded, between them."""
     path = Path(path)
+
+    def spread(count: int):
+        return np.unique(np.linspace(0, count - 1, n).round().astype(int)) if count > 0 else ()
+
     if path.is_dir():
-        files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
-        picks = [files[k] for k in np.unique(np.linspace(0, len(files) - 1, n).round().astype(int))] if files else []
-        return [f for f in (cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) for f in picks) if f is not None]
+        files = _image_files(path)
+        return [_read_image(path, files[k]) for k in spread(len(files))]
     cap = cv2.VideoCapture(str(path))
-    count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
     keep = []
-    for k in np.unique(np.linspace(0, count - 1, n).round().astype(int)) if count > 0 else ():
+    for k in spread(int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0):
         cap.set(cv2.CAP_PROP_POS_FRAMES, int(k))
         ok, frame = cap.read()
         if ok:
-            keep.append(frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
+            keep.append(_grey(frame))
     cap.release()
     if keep:
         return keep
