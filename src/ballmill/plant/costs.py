@@ -14,8 +14,6 @@ from __future__ import annotations
 import math
 from functools import cache
 
-import pandas as pd
-
 from ..config import EconomicsConfig, PlantConfig
 from ..data import lookup, table
 from ..economics import cepci
@@ -36,8 +34,9 @@ def correlations(name: str) -> dict:
     return {row.unit: row for row in table(name).itertuples()}
 
 
-def purchase_costs(sizes: dict[str, float], cfg: PlantConfig, econ: EconomicsConfig) -> pd.DataFrame:
-    """One row per unit: size, parallel units, purchase cost in the target year ($)."""
+def purchase_costs(sizes: dict[str, float], cfg: PlantConfig, econ: EconomicsConfig) -> list[dict]:
+    """One row per unit: size, parallel units, purchase cost in the target year ($).  Plain rows,
+    not a DataFrame: the Monte Carlo costs the plant thousands of times."""
     target = cepci(econ.cepci_target_year, econ)
     rows = []
     for unit, size in sizes.items():
@@ -48,17 +47,19 @@ def purchase_costs(sizes: dict[str, float], cfg: PlantConfig, econ: EconomicsCon
         cost = count * correlation_cost(row, each) * target / row.cost_index * cfg.equipment_cost_factor
         rows.append({"unit": unit, "size": size, "size_unit": row.size_si_unit, "parallel_units": count,
                      "below_range": size / count < lo, "material": row.material, "purchase_cost_usd": cost})
-    return pd.DataFrame(rows)
+    return rows
 
 
-def capital(equipment: pd.DataFrame, cfg: PlantConfig) -> dict:
-    """ISBL per unit (added to `equipment`), direct and fixed capital and working capital ($)."""
-    fm = equipment.material.map({"stainless": cfg.stainless_factor}).fillna(1.0)
-    equipment["isbl_usd"] = equipment.purchase_cost_usd * (cfg.installation_factor + (1 + PIPING_FACTOR) * (fm - 1))
-    isbl = float(equipment.isbl_usd.sum())
+def capital(equipment: list[dict], cfg: PlantConfig) -> dict:
+    """ISBL per unit (added to each row of `equipment`), direct and fixed capital and working
+    capital ($)."""
+    for row in equipment:
+        fm = cfg.stainless_factor if row["material"] == "stainless" else 1.0
+        row["isbl_usd"] = row["purchase_cost_usd"] * (cfg.installation_factor + (1 + PIPING_FACTOR) * (fm - 1))
+    isbl = math.fsum(row["isbl_usd"] for row in equipment)
     direct = isbl * (1 + cfg.site_factor)
     fixed = direct * (1 + cfg.indirect_factor)
-    return {"purchase_cost_total_usd": float(equipment.purchase_cost_usd.sum()), "isbl_usd": isbl,
+    return {"purchase_cost_total_usd": math.fsum(row["purchase_cost_usd"] for row in equipment), "isbl_usd": isbl,
             "direct_cost_usd": direct, "fixed_capital_usd": fixed,
             "working_capital_usd": cfg.working_capital_fraction * fixed}
 

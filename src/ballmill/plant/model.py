@@ -36,7 +36,7 @@ class Mill:
 @dataclass
 class Plant:
     flows: Flowsheet
-    equipment: pd.DataFrame
+    units: list[dict]  # one row per unit (costs.purchase_costs), the mill first
     capital: dict
     opex: dict[str, float]
     rtpa_t_per_yr: float
@@ -47,15 +47,15 @@ class Plant:
         t = self.rtpa_t_per_yr
         opex_total = sum(self.opex.values())
         capital_part = self.msp_usd_per_t - opex_total / t
-        mill_share = float(self.equipment.set_index("unit").isbl_usd[MILL]) / self.capital["isbl_usd"]
+        isbl = {row["unit"]: row["isbl_usd"] for row in self.units}
+        mill_share = isbl[MILL] / self.capital["isbl_usd"]
         mill_section = (capital_part + self.opex["maintenance"] / t) * mill_share + self.opex["electricity_mill"] / t
         return {
             "plant_fresh_pet_kg_per_h": self.flows.streams["bale PET"]["pet"],
             "plant_mill_pet_kg_per_h": self.flows.mill_pet_kg_per_h,
             "plant_rtpa_t_per_yr": t, "plant_eg_kg_per_h": self.flows.streams["EG"]["eg"],
             **{f"plant_{k}": v for k, v in self.capital.items()},
-            **{f"plant_isbl_{u.lower().replace(' ', '_')}_usd": v
-               for u, v in self.equipment.set_index("unit").isbl_usd.items()},
+            **{f"plant_isbl_{u.lower().replace(' ', '_')}_usd": v for u, v in isbl.items()},
             **{f"plant_{k}": v for k, v in self.flows.utilities.items()},
             "plant_opex_usd_per_yr": opex_total, **{f"plant_opex_{k}_usd_per_yr": v for k, v in self.opex.items()},
             "msp_usd_per_kg": self.msp_usd_per_t / 1000.0,
@@ -65,6 +65,11 @@ class Plant:
             "msp_mill_share": mill_section / self.msp_usd_per_t,
         }
 
+    @property
+    def equipment(self) -> pd.DataFrame:
+        """The units as a table: size, parallel units, purchase cost and ISBL ($)."""
+        return pd.DataFrame(self.units)
+
     def stream_table(self) -> pd.DataFrame:
         return stream_table(self.flows.streams)
 
@@ -73,11 +78,10 @@ def evaluate(mill: Mill, cfg: PlantConfig, econ: EconomicsConfig, prices: dict[s
     """The plant around `mill`; `prices` overrides rows of data/prices.csv ($/t)."""
     fresh = mill.pet_kg_per_h * (1.0 - (1.0 - cfg.recycle_purge_fraction) * (1.0 - mill.conversion))
     flows = flowsheet(fresh, mill.conversion, mill.naoh_to_stoichiometric, cfg)
-    equipment = purchase_costs(flows.sizes, cfg, econ)
-    equipment = pd.concat([pd.DataFrame([{"unit": MILL, "size": mill.pet_kg_per_h / 1000.0, "size_unit": "t/h PET",
-                                          "parallel_units": 1, "below_range": False, "material": "carbon_steel",
-                                          "purchase_cost_usd": mill.purchase_cost_usd * cfg.equipment_cost_factor}]),
-                           equipment], ignore_index=True)
+    equipment = [{"unit": MILL, "size": mill.pet_kg_per_h / 1000.0, "size_unit": "t/h PET", "parallel_units": 1,
+                  "below_range": False, "material": "carbon_steel",
+                  "purchase_cost_usd": mill.purchase_cost_usd * cfg.equipment_cost_factor},
+                 *purchase_costs(flows.sizes, cfg, econ)]
     cap = capital(equipment, cfg)
     opex = operating_costs(flows.streams, flows.utilities, mill.power_w, cap["isbl_usd"], cap["fixed_capital_usd"],
                            cfg, econ, prices or {})
