@@ -22,7 +22,8 @@ def simulate(threads=2, launches=1, drum=DRUM, **options):
     engine = Engine(spec, EngineOptions(dt_s=time_step_s(spec, SIM), **options))
     for _ in range(launches):
         engine.advance(10_000 // launches)
-    return {"x": engine.x.to_numpy(), "v": engine.v.to_numpy(), "w": engine.w.to_numpy(),
+    x, v, w = engine.kinematics()
+    return {"x": x, "v": v, "w": w,
             "radius": spec.radius_m, "contact_pairs": engine.nl.contact_pairs(), "rebuilds": engine.rebuilds()}
 
 

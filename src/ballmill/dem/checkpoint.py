@@ -24,6 +24,9 @@ from ..files import write_atomic
 
 log = logging.getLogger(__name__)
 META = "__meta__"
+# the engine's field layout: 2 = fields sized by the particle capacity (particles.capacity); a
+# state of another layout is not restored (the run starts afresh)
+LAYOUT = 2
 
 
 def encode(obj, arrays: list[np.ndarray]):
@@ -97,14 +100,15 @@ class Checkpoint:
 
     def save(self, engine, recorder, next_sample: int, label: str) -> None:
         """Write the state atomically: a temporary file renamed over the last checkpoint."""
-        write_state(self.path, {"key": self.key, "label": label, "next_sample": next_sample,
+        write_state(self.path, {"key": self.key, "layout": LAYOUT, "label": label, "next_sample": next_sample,
                                 "engine": engine.state(), "recorder": recorder.state()})
 
     def resume(self, engine, recorder, label: str) -> int:
         """Restore engine and recorder from the checkpoint if it is this run's: the sample to
         continue from (0: start from the beginning)."""
         payload = read_state(self.path)
-        if payload is None or payload.get("key") != self.key or payload.get("label") != label:
+        if payload is None or payload.get("key") != self.key or payload.get("label") != label \
+                or payload.get("layout") != LAYOUT:
             return 0
         engine.restore(payload["engine"])
         recorder.restore(payload["recorder"])
@@ -128,14 +132,16 @@ class SettledBed:
     WITHOUT = ("mo",)  # the engine's wall motions: each run's own
 
     def save(self, engine, recorder) -> None:
-        write_state(self.path, {"key": self.key, "step": self.step, "engine": engine.state(self.WITHOUT),
+        write_state(self.path, {"key": self.key, "layout": LAYOUT, "step": self.step,
+                                "engine": engine.state(self.WITHOUT),
                                 "recorder": recorder.samples()}, compress=True)
         log.info("saved the settled bed (t=%.4f s) to %s", engine.time_s, self.path)
 
     def restore(self, engine, recorder) -> bool:
         """Start engine and recorder from the saved bed if there is one for this key and step."""
         payload = read_state(self.path)
-        if payload is None or payload.get("key") != self.key or payload.get("step") != self.step:
+        if payload is None or payload.get("key") != self.key or payload.get("step") != self.step \
+                or payload.get("layout") != LAYOUT:
             return False
         engine.restore(payload["engine"], self.WITHOUT)
         recorder.restore_samples(payload["recorder"])

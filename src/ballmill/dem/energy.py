@@ -26,7 +26,7 @@ N_OUT = len(CHANNELS) + 1  # the channels and the elastic energy now
 class EnergyBook:
     def __init__(self, particles):
         self.p = particles
-        n = particles.n
+        n = particles.cap
         self.cumulative = ti.Vector.field(len(CHANNELS), float, n)
         self.elastic_pairs = ti.field(float, n)
         self.elastic_walls = ti.field(float, n)

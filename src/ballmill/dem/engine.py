@@ -35,7 +35,7 @@ from .monitor import CELL, NEIGHBOURS, WALL_CONTACTS, Monitor
 from .motion import Motions
 from .neighbours import NeighbourList
 from .pairs import PairContacts
-from .particles import Particles
+from .particles import Particles, capacity
 from .results import Recorder, Results
 from .system import SystemSpec
 from .team import SPACING, Team
@@ -65,8 +65,8 @@ class SimulationError(RuntimeError):
 
 
 def memory_estimate_bytes(n_particles: int, max_contacts: int, event_capacity: int) -> float:
-    """Memory the engine's fields will take (bytes, f64)."""
-    return n_particles * (PARTICLE_BYTES + SLOT_BYTES * max_contacts) + EVENT_BYTES * event_capacity
+    """Memory the engine's fields will take (bytes, f64; fields hold capacity(n) particles)."""
+    return capacity(n_particles) * (PARTICLE_BYTES + SLOT_BYTES * max_contacts) + EVENT_BYTES * event_capacity
 
 
 @dataclass(frozen=True)
@@ -151,16 +151,16 @@ class Engine:
     def _first_forces(self):
         for r, b in ti.ndrange(self.n_rep, self.n_body):
             self.mo.pose(r, b, 0.0)
-        for i in range(self.n):
+        for i in range(self.p.live[None]):
             self.pairs.forces(i, 0)
-        for i in range(self.n):
+        for i in range(self.p.live[None]):
             self.finish(i, 0, False)
 
     @ti.kernel
     def _step(self, k: ti.i32, phases: ti.template()) -> ti.i32:
         """Step k, parallel over particles; returns 1 when the list must be rebuilt first."""
         if ti.static(phases & DRIFT):
-            for i in range(self.n):
+            for i in range(self.p.live[None]):
                 self.p.kick_drift(i, self.monitor)
         if ti.static(phases & POSE):
             ti.loop_config(serialize=True)
@@ -168,10 +168,10 @@ class Engine:
                 for b in range(self.n_body):
                     self.mo.pose(r, b, k * self.p.dt[None])
         if ti.static(phases & PAIRS):
-            for i in range(self.n):
+            for i in range(self.p.live[None]):
                 self.pairs.forces(i, k)
         if ti.static(phases & FINISH):
-            for i in range(self.n):
+            for i in range(self.p.live[None]):
                 self.finish(i, k, True)
         return self.nl.any_due[None]
 
@@ -196,9 +196,9 @@ class Engine:
     @ti.func
     def team_phase(self, t, base, k, phase: ti.template()):
         """Member t's share of one phase (chunks of particles as it frees up); the next base."""
-        c = self.team.ticket(base)
-        while c < self.team.n_chunks:
-            for i in range(c * self.team.chunk, ti.min((c + 1) * self.team.chunk, self.n)):
+        c, chunk, n = self.team.ticket(base), self.team.chunk[None], self.p.live[None]
+        while c < self.team.chunks[None]:
+            for i in range(c * chunk, ti.min((c + 1) * chunk, n)):
                 if ti.static(phase == DRIFT):
                     self.p.kick_drift(i, self.monitor)
                 if ti.static(phase == PAIRS):
@@ -376,8 +376,8 @@ class Engine:
         """Open contacts of each particle now (with particles and walls)."""
         open_ = self.nl.open_slots()
         counts = open_.sum(axis=1)
-        np.add.at(counts, self.nl.nb_j.to_numpy()[open_], 1)
-        return counts + self.walls.c_n.to_numpy()[self.step_index % 2]
+        np.add.at(counts, self.nl.nb_j.to_numpy()[:self.n][open_], 1)
+        return counts + self.walls.c_n.to_numpy()[self.step_index % 2, :self.n]
 
     def contacts_per_particle(self) -> float:
         return float(self.contact_counts().mean())
@@ -389,7 +389,7 @@ class Engine:
     def check(self) -> None:
         """Stop with a clear message when the run went unphysical."""
         m, t = self.monitor, f"t={self.time_s:.6g} s"
-        x = self.x.to_numpy()
+        x = self.x.to_numpy()[:self.n]
         if not np.isfinite(x).all():
             raise SimulationError(
                 f"non-finite particle position at {t}: reduce sim.dt_fraction "
@@ -436,7 +436,7 @@ class Engine:
         return out
 
     def _energy_now(self) -> dict[str, np.ndarray]:
-        x, v, w = self.x.to_numpy(), self.v.to_numpy(), self.w.to_numpy()
+        x, v, w = self.kinematics()
         m, reps = self.p.mass_np, self.spec.replica
 
         def per_replica(q):
@@ -446,6 +446,10 @@ class Engine:
                 "rotational_j": per_replica(0.2 * m * self.spec.radius_m**2 * (w**2).sum(1)),
                 "potential_j": per_replica(-m * (x @ np.asarray(self.spec.gravity_m_per_s2))),
                 **self.book.totals()}
+
+    def kinematics(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions (m), velocities (m/s) and spins (rad/s) of the particles now, (n, 3) each."""
+        return self.x.to_numpy()[:self.n], self.v.to_numpy()[:self.n], self.w.to_numpy()[:self.n]
 
     def drain_events(self) -> tuple[np.ndarray, np.ndarray]:
         """Collisions ended since the last call: ints (i, partner, start, end step), values."""

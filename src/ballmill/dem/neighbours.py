@@ -21,6 +21,7 @@ import numpy as np
 import taichi as ti
 
 from .monitor import CELL, NEIGHBOURS
+from .particles import capacity
 
 
 @ti.data_oriented
@@ -29,9 +30,9 @@ class NeighbourList:
 
     def __init__(self, spec, particles, monitor, capacity: int, skin_m: float, use_grid: bool,
                  parallel_binning: bool | None = None):
-        n, reps = spec.n_particles, spec.n_replicas
+        n, reps = particles.cap, spec.n_replicas
         self.p, self.monitor = particles, monitor
-        self.n, self.n_rep, self.k_max, self.skin, self.use_grid = n, reps, capacity, skin_m, use_grid
+        self.n_rep, self.k_max, self.skin, self.use_grid = reps, capacity, skin_m, use_grid
         # on a CPU one thread bins faster than launching threads; a GPU bins in parallel, then sorts
         on_cpu = ti.lang.impl.current_cfg().arch == ti.cpu
         self.serial_binning = on_cpu if parallel_binning is None else not parallel_binning
@@ -66,12 +67,17 @@ class NeighbourList:
         self._build_grid(spec)
 
     def _build_grid(self, spec) -> None:
-        """Cells of side 2 r_max + skin, so partners within the cut-off lie in the 27 cells around."""
+        """Cells of side 2 r_max + skin, so partners within the cut-off lie in the 27 cells around;
+        the grid's dimensions are read at run time and its storage has capacity(cells) rows, so
+        that vessels of other sizes share the compiled kernels."""
         self.h = 2.0 * float(spec.radius_m.max()) + self.skin
         lo, hi = np.asarray(spec.domain_lo_m, float), np.asarray(spec.domain_hi_m, float)
         dims = np.maximum(np.ceil((hi - lo) / self.h).astype(int), 1) if self.use_grid else np.ones(3, int)
-        self.dims = tuple(int(d) for d in dims)
-        self.cells_per_rep = int(np.prod(dims))
+        cells = int(np.prod(dims)) * self.n_rep
+        self.dims = ti.Vector.field(3, ti.i32, ())
+        self.dims[None] = dims.astype(np.int32)
+        self.n_cells = ti.field(ti.i32, ())
+        self.n_cells[None] = cells
         r_min = float(spec.radius_m.min())
         # centres at least 2 r_min (1 - 5 % overlap) apart: one size, at most (h / 1.9 r_min + 1)^3 in a
         # cell; several sizes (h up to 2 r_max + skin), at most what the densest packing (0.7405) of
@@ -80,21 +86,23 @@ class NeighbourList:
         if r_min < float(spec.radius_m.max()):
             ball = 4 / 3 * math.pi * (0.95 * r_min) ** 3
             self.cell_cap = max(self.cell_cap, math.floor(0.7405 * (self.h + 1.9 * r_min) ** 3 / ball))
-        self.cell_count = ti.field(ti.i32, self.cells_per_rep * self.n_rep)
-        self.cell_list = ti.field(ti.i32, (self.cells_per_rep * self.n_rep, self.cell_cap))
+        self.cell_count = ti.field(ti.i32, capacity(cells))
+        self.cell_list = ti.field(ti.i32, (capacity(cells), self.cell_cap))
 
     # ------------------------------------------------------------------ cell grid
     @ti.func
     def cell_of(self, i):
         rel = (self.p.x[i] - self.p.domain_lo[None]) / self.h
+        dims = self.dims[None]
         c = ti.Vector([0, 0, 0])
         for a in ti.static(range(3)):
-            c[a] = ti.min(ti.max(int(ti.floor(rel[a])), 0), self.dims[a] - 1)
+            c[a] = ti.min(ti.max(int(ti.floor(rel[a])), 0), dims[a] - 1)
         return c
 
     @ti.func
     def cell_id(self, r, c):
-        return ((r * self.dims[0] + c[0]) * self.dims[1] + c[1]) * self.dims[2] + c[2]
+        dims = self.dims[None]
+        return ((r * dims[0] + c[0]) * dims[1] + c[1]) * dims[2] + c[2]
 
     @ti.func
     def bin(self, i):
@@ -140,10 +148,10 @@ class NeighbourList:
         cnt, low = 0, 0
         r = self.p.rep[i]
         if ti.static(self.use_grid):
-            c0 = self.cell_of(i)
+            c0, dims = self.cell_of(i), self.dims[None]
             for o in range(27):  # a dynamic loop: the scan is compiled once, not 27 times
                 c = c0 + ti.Vector([o // 9 - 1, (o // 3) % 3 - 1, o % 3 - 1])
-                if 0 <= c[0] < self.dims[0] and 0 <= c[1] < self.dims[1] and 0 <= c[2] < self.dims[2]:
+                if 0 <= c[0] < dims[0] and 0 <= c[1] < dims[1] and 0 <= c[2] < dims[2]:
                     cid = self.cell_id(r, c)
                     for q in range(ti.min(self.cell_count[cid], self.cell_cap)):
                         cnt, low = self.consider(i, self.cell_list[cid, q], cnt, low)
@@ -187,7 +195,8 @@ class NeighbourList:
         """Serial rebuild of replica r (one thread; used inside multi-step kernels)."""
         i0, i1 = self.p.rep_start[r], self.p.rep_end[r]
         if ti.static(self.use_grid):
-            for c in range(r * self.cells_per_rep, (r + 1) * self.cells_per_rep):
+            per_rep = self.n_cells[None] // self.n_rep
+            for c in range(r * per_rep, (r + 1) * per_rep):
                 self.cell_count[c] = 0
             for i in range(i0, i1):  # in id order, so each cell is already sorted
                 self.bin(i)
@@ -202,9 +211,9 @@ class NeighbourList:
     def bin_all(self):
         """Every particle into its cell, serially in id order, so each cell is already sorted."""
         if ti.static(self.use_grid):
-            for c in range(self.cell_count.shape[0]):
+            for c in range(self.n_cells[None]):
                 self.cell_count[c] = 0
-            for i in range(self.n):
+            for i in range(self.p.live[None]):
                 self.bin(i)
 
     @ti.func
@@ -219,19 +228,19 @@ class NeighbourList:
     def build_all(self):
         """Parallel rebuild of every replica."""
         if ti.static(self.use_grid and not self.serial_binning):
-            for c in self.cell_count:
+            for c in range(self.n_cells[None]):
                 self.cell_count[c] = 0
-            for i in range(self.n):
+            for i in range(self.p.live[None]):
                 self.bin(i)
-            for c in self.cell_count:
+            for c in range(self.n_cells[None]):
                 self.sort_row(self.cell_list, c, ti.min(self.cell_count[c], self.cell_cap))
         else:
             ti.loop_config(serialize=True)
             for _ in range(1):
                 self.bin_all()
-        for i in range(self.n):
+        for i in range(self.p.live[None]):
             self.build_particle(i)
-        for i in range(self.n):
+        for i in range(self.p.live[None]):
             self.link_reverse(i)
         ti.loop_config(serialize=True)
         for _ in range(1):
@@ -265,8 +274,9 @@ class NeighbourList:
 
     def open_slots(self) -> np.ndarray:
         """(n, capacity) mask of the list slots whose pair is in contact now."""
-        used = np.arange(self.k_max)[None, :] < self.nb_n.to_numpy()[:, None]
-        return used & (self.start.to_numpy() >= 0)
+        n = self.p.n
+        used = np.arange(self.k_max)[None, :] < self.nb_n.to_numpy()[:n, None]
+        return used & (self.start.to_numpy()[:n] >= 0)
 
     def contact_pairs(self) -> int:
         """Pairs in contact now."""

@@ -10,14 +10,34 @@ import numpy as np
 import taichi as ti
 
 
+def capacity(n: int) -> int:
+    """Slots allocated for n items (particles, grid cells): the next power of two up to 8,192
+    (at least 64), above that the next multiple of an eighth of the power of two below (at most
+    12.5 % spare).  Taichi compiles a kernel for the shapes of the fields it touches: systems of
+    one capacity share compiled kernels (a sweep's mills, once per capacity instead of per mill)."""
+    if n <= 8192:
+        return max(64, 1 << max(n - 1, 0).bit_length())
+    step = 1 << (n.bit_length() - 4)
+    return -(-n // step) * step
+
+
+def padded(values, cap: int) -> np.ndarray:
+    """values (first axis n) with zero rows appended up to cap."""
+    values = np.asarray(values)
+    return np.concatenate([values, np.zeros((cap - len(values), *values.shape[1:]), values.dtype)])
+
+
 @ti.data_oriented
 class Particles:
-    """Positions, velocities, spins, forces and constants of n spheres, sorted by replica."""
+    """Positions, velocities, spins, forces and constants of n spheres, sorted by replica, in
+    fields of `cap` = capacity(n) slots; kernels loop over the first `live[None]` = n."""
 
     def __init__(self, spec):
         n, reps = spec.n_particles, spec.n_replicas
         counts = np.bincount(spec.replica, minlength=reps)
         self.n, self.n_rep, self.counts = n, reps, counts
+        self.cap = n = capacity(n)
+        self.live = ti.field(ti.i32, ())
         self.x = ti.Vector.field(3, float, n)
         self.v = ti.Vector.field(3, float, n)
         self.w = ti.Vector.field(3, float, n)
@@ -36,14 +56,12 @@ class Particles:
         self.domain_hi = ti.Vector.field(3, float, ())
         density = np.array([spec.materials[m].density_kg_per_m3 for m in spec.material_names])[spec.material]
         self.mass_np = density * 4.0 / 3.0 * math.pi * spec.radius_m**3
-        self.x.from_numpy(spec.position_m)
-        self.v.from_numpy(spec.velocity_m_per_s)
-        self.w.from_numpy(spec.angular_velocity_rad_per_s)
-        self.rad.from_numpy(spec.radius_m)
-        self.mass.from_numpy(self.mass_np)
-        self.inertia.from_numpy(0.4 * self.mass_np * spec.radius_m**2)
-        self.mat.from_numpy(spec.material.astype(np.int32))
-        self.rep.from_numpy(spec.replica.astype(np.int32))
+        for field, values in ((self.x, spec.position_m), (self.v, spec.velocity_m_per_s),
+                              (self.w, spec.angular_velocity_rad_per_s), (self.rad, spec.radius_m),
+                              (self.mass, self.mass_np), (self.inertia, 0.4 * self.mass_np * spec.radius_m**2),
+                              (self.mat, spec.material.astype(np.int32)), (self.rep, spec.replica.astype(np.int32))):
+            field.from_numpy(padded(values, n))
+        self.live[None] = self.n
         ends = np.cumsum(counts)
         self.rep_start.from_numpy((ends - counts).astype(np.int32))
         self.rep_end.from_numpy(ends.astype(np.int32))

@@ -110,7 +110,7 @@ class Recorder:
         if snapshot:
             self.snapshots.pop(0)
         if snapshot or (self.every and self.n_samples % self.every == 0):
-            x, v, w = engine.x.to_numpy(), engine.v.to_numpy(), engine.w.to_numpy()
+            x, v, w = engine.kinematics()
             self._add(
                 "trajectories", t_s=t, replica=reps, particle=np.arange(engine.n),
                 x_m=x[:, 0], y_m=x[:, 1], z_m=x[:, 2],
@@ -127,7 +127,7 @@ class Recorder:
             return
         i, key = ints[:, 0], ints[:, 1]
         walls = engine.walls
-        n, nw, nt = engine.n, walls.n_wall, walls.n_tri
+        n, nw, nt = walls.n, walls.n_wall, walls.n_tri  # keys of walls start at walls.n
         is_pair = key < n
         body = np.full(len(key), -1)
         wall = (key >= n) & (key < n + nw)

@@ -32,9 +32,13 @@ class Team:
         # chunks of consecutive particles (neighbours in space, from the lattice the bed starts
         # on): large enough that a member mostly meets its own chunks' data, small enough that
         # each member gets about 8 and the last ones even out the load
-        self.size, self.n = size, n
-        self.chunk = min(MAX_CHUNK, max(MIN_CHUNK, n // (8 * size)))
-        self.n_chunks = math.ceil(n / self.chunk)
+        self.size = size
+        chunk = min(MAX_CHUNK, max(MIN_CHUNK, n // (8 * size)))
+        self.n_chunks = math.ceil(n / chunk)
+        # read at run time, so that systems of other sizes share the compiled kernels
+        self.chunk = ti.field(ti.i32, ())  # particles per chunk
+        self.chunks = ti.field(ti.i32, ())  # = n_chunks
+        self.chunk[None], self.chunks[None] = chunk, self.n_chunks
         self.cursor = ti.field(ti.i32, ())  # tickets handed out this launch
         self.arrived = ti.field(ti.i32, ())  # arrivals at barriers this launch
 
@@ -75,4 +79,4 @@ class Team:
     @ti.func
     def next_base(self, base):
         """First ticket of the next phase: each member took one ticket past the last chunk."""
-        return base + self.n_chunks + self.size
+        return base + self.chunks[None] + self.size

@@ -80,12 +80,12 @@ class VtkWriter:
 
     @staticmethod
     def _particles(engine, path: Path) -> None:
-        x = engine.x.to_numpy()
+        x, v, w = engine.kinematics()
         n = len(x)
         meshio.write(path, meshio.Mesh(x, [("vertex", np.arange(n).reshape(-1, 1))], point_data={
             "id": np.arange(n, dtype=np.int32), "replica": engine.spec.replica.astype(np.int32),
             "material": engine.spec.material.astype(np.int32), "radius": engine.spec.radius_m,
-            "velocity": engine.v.to_numpy(), "angular_velocity": engine.w.to_numpy(),
+            "velocity": v, "angular_velocity": w,
             "contacts": engine.contact_counts().astype(np.int32)}))
 
     @staticmethod

@@ -4,7 +4,7 @@ Contacts are found in the body frame of each wall (one frame change per particle
 body), then resolved with the same contact law as sphere-sphere contacts (a wall is a body
 of infinite mass and radius).  Each particle keeps its wall contacts in slots double
 buffered by step parity (old: the previous step, new: this one), keyed by partner:
-n + w for analytic wall w, n + n_wall + t for triangle t.  The reaction on each body is
+cap + w for analytic wall w, cap + n_wall + t for triangle t (cap: the particle capacity).  The reaction on each body is
 accumulated per (particle, body) and summed in particle order when drained.
 """
 
@@ -27,7 +27,8 @@ EDGE_SAME = math.cos(math.radians(20.0))  # normals closer than 20 deg: the same
 class Walls:
     def __init__(self, spec, particles, tables, motions, monitor, book, capacity: int, collision_log: bool):
         self.p, self.tables, self.mo, self.monitor, self.book = particles, tables, motions, monitor, book
-        self.n, self.k_max, self.collision_log = spec.n_particles, capacity, collision_log
+        # partner keys: particles are < n, walls from the particle capacity on (fixed at compile time)
+        self.n, self.k_max, self.collision_log = particles.cap, capacity, collision_log
         self.n_body = len(spec.bodies)
         self._build_primitives(spec)
         n, k, b = self.n, capacity, max(self.n_body, 1)
