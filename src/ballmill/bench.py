@@ -43,9 +43,12 @@ def scaled_drum(n_balls: int) -> DrumConfig:
 
 
 def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, profile_steps: int,
-          precision: str = "f64", skin: float = 0.5, peer: str | None = None, scaling: bool = False) -> dict:
+          precision: str = "f64", skin: float = 0.5, peer: str | None = None, scaling: bool = False,
+          rounds: int = 1) -> dict:
     """Throughput of one drum case: a ball count (the scaled reference drum) or 'bpr19'; with
-    `scaling`, the same run on one thread as well."""
+    `scaling`, the same run on one thread as well.  With `rounds` > 1 our run and the peers'
+    2-rank runs are repeated one after the other: the rates are medians over the rounds and
+    each ratio the median of the rounds' ratios (this machine's speed drifts over minutes)."""
     drum, material = (BPR19, MaterialConfig()) if case == "bpr19" else (scaled_drum(int(case)), STEEL_E2E8)
     sim = SimConfig(arch=arch, threads=threads, precision=precision, settle_s=settle_s, duration_s=rotate_s,
                     sample_every_s=min(0.05, rotate_s / 2), neighbour_skin=skin, max_overlap_fraction=0.1)
@@ -60,21 +63,30 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
     phases = engine.profile(profile_steps)
     total = sum(phases.values())
     power, se = res.mean_power_w("drum", after_s=settle_s + 0.3 * rotate_s)
-    peers = {}
-    if peer:
-        peers = peer_rates(peer_names(peer), spec, drum, material, PAIRS["steel-steel"], engine.dt, settle_s,
-                           rotate_s, engine.nl.skin)
-        peers |= {f"ratio_to_{k}": rate / v for k, v in list(peers.items())}
+    names = peer_names(peer)
+    peer_args = (spec, drum, material, PAIRS["steel-steel"], engine.dt, settle_s, rotate_s, engine.nl.skin)
+    peers = peer_rates(names, *peer_args) if names else {}
+    ours, theirs = [rate], {k: [v] for k, v in peers.items() if k.endswith("_2_ranks")}
+    for _ in range(rounds - 1):
+        ours.append(bench_run(spec, sim, threads)[1])
+        for k, v in peer_rates(names, *peer_args, ranks=(2,)).items():
+            theirs[k].append(v)
+    ratios = {f"ratio_to_{k}": rate / v for k, v in peers.items()}  # the first round's, one after the other
+    ratios |= {f"ratio_to_{k}": float(np.median(np.divide(ours, v))) for k, v in theirs.items()}
+    peers |= {k: float(np.median(v)) for k, v in theirs.items()}
+    by_round = {"rounds": rounds, "particle_steps_per_s_by_round": ours,
+                **{f"{k}_by_round": v for k, v in theirs.items()}}
+    rate = float(np.median(ours))
     return {
         "case": case, "balls": spec.n_particles, "arch": arch, "threads": threads or "all", "precision": precision,
         "launch": engine.launch, "dt_s": engine.dt, "skin_fraction": skin, "settle_s": settle_s, "rotate_s": rotate_s,
         "particle_steps_per_s": rate, **one_thread,
-        **({"thread_scaling": rate / one_thread["particle_steps_per_s_1_thread"]} if one_thread else {}),
+        **({"thread_scaling": ours[0] / one_thread["particle_steps_per_s_1_thread"]} if one_thread else {}),
         "steps_per_rebuild": steps_per_rebuild, "contacts_per_particle": contacts,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "engine_bytes_per_particle": bytes_per_particle,
         "power_w": power, "power_se_w": se, **{f"share_{k.replace(' ', '_')}": v / total for k, v in phases.items()},
-        **peers,
+        **peers, **ratios, **(by_round if rounds > 1 else {}),
     }
 
 
@@ -96,6 +108,12 @@ def resident_bytes() -> float:
     """Memory the process holds now (resident set, bytes)."""
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * resource.getpagesize()
+
+
+def _cell(value) -> str:
+    if isinstance(value, list):
+        return " ".join(_cell(v) for v in value)
+    return f"{value:.4g}" if isinstance(value, float) else str(value)
 
 
 def peer_names(peer: str | None) -> tuple[str, ...]:
@@ -130,9 +148,9 @@ def main(opts: BenchConfig) -> None:
             large = c != "bpr19" and int(c) >= opts.large_from
             times = (opts.large_settle_s, opts.large_rotate_s) if large else (opts.settle_s, opts.rotate_s)
             rows.append(bench(c, opts.arch, opts.threads, *times, opts.profile_steps, opts.precision, opts.skin,
-                              opts.peer, scaling=c in opts.scaling))
+                              opts.peer, scaling=c in opts.scaling, rounds=opts.rounds))
     keys = list(dict.fromkeys(k for r in rows for k in r))
     print("\n" + " | ".join(keys))
     for r in rows:
-        print(" | ".join(f"{r[k]:.4g}" if isinstance(r.get(k), float) else str(r.get(k, "")) for k in keys))
+        print(" | ".join(_cell(r.get(k, "")) for k in keys))
     write_json(opts.json, {"options": asdict(opts), "rows": rows})
