@@ -23,6 +23,7 @@ import time
 from dataclasses import asdict, replace
 
 import numpy as np
+import pandas as pd
 
 from .config import BenchConfig, ConfigError, DrumConfig, InteractionConfig, MaterialConfig, SimConfig
 from .dem import Engine, init_taichi
@@ -46,47 +47,44 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
           precision: str = "f64", skin: float = 0.5, peer: str | None = None, scaling: bool = False,
           rounds: int = 1) -> dict:
     """Throughput of one drum case: a ball count (the scaled reference drum) or 'bpr19'; with
-    `scaling`, the same run on one thread as well.  With `rounds` > 1 our run and the peers'
-    2-rank runs are repeated one after the other: the rates are medians over the rounds and
-    each ratio the median of the rounds' ratios (this machine's speed drifts over minutes)."""
+    `scaling`, the same run on one thread as well.  `rounds` repeats every run (ours, then the
+    peers') one after the other: rates and ratios are medians over the rounds, each ratio taken
+    within its round (this machine's speed drifts over minutes)."""
     drum, material = (BPR19, MaterialConfig()) if case == "bpr19" else (scaled_drum(int(case)), STEEL_E2E8)
     sim = SimConfig(arch=arch, threads=threads, precision=precision, settle_s=settle_s, duration_s=rotate_s,
                     sample_every_s=min(0.05, rotate_s / 2), neighbour_skin=skin, max_overlap_fraction=0.1)
     spec = drum_spec(drum, {"steel": material}, PAIRS, sim)
-    one_thread = {}
+    by_round = []
+    for r in range(rounds):
+        rates = {"particle_steps_per_s_1_thread": bench_run(spec, sim, 1)[1]} if scaling else {}
+        rss0 = resident_bytes()
+        engine, rates["particle_steps_per_s"], res, steps_per_rebuild = bench_run(spec, sim, threads)
+        if r == 0:  # what the engine did, from the first round
+            first = {"launch": engine.launch, "dt_s": engine.dt, "steps_per_rebuild": steps_per_rebuild,
+                     "contacts_per_particle": engine.contacts_per_particle(),
+                     "engine_bytes_per_particle": (resident_bytes() - rss0) / spec.n_particles}
+            phases = engine.profile(profile_steps)
+            power, se = res.mean_power_w("drum", after_s=settle_s + 0.3 * rotate_s)
+            peer_args = (spec, drum, material, PAIRS["steel-steel"], engine.dt, settle_s, rotate_s, engine.nl.skin)
+        by_round.append(rates | peer_rates(peer_names(peer), *peer_args))
+    table = pd.DataFrame(by_round)
+    ours = table.pop("particle_steps_per_s")
+    for k in list(table.columns):
+        if k.endswith("_ranks"):
+            table[f"ratio_to_{k}"] = ours / table[k]
+            if scaling and k.endswith("_1_ranks"):  # per core
+                table[f"ratio_1_thread_to_{k}"] = table["particle_steps_per_s_1_thread"] / table[k]
     if scaling:
-        one_thread = {"particle_steps_per_s_1_thread": bench_run(spec, sim, 1)[1]}
-    rss0 = resident_bytes()
-    engine, rate, res, steps_per_rebuild = bench_run(spec, sim, threads)
-    contacts = engine.contacts_per_particle()
-    bytes_per_particle = (resident_bytes() - rss0) / spec.n_particles
-    phases = engine.profile(profile_steps)
+        table["thread_scaling"] = ours / table["particle_steps_per_s_1_thread"]
     total = sum(phases.values())
-    power, se = res.mean_power_w("drum", after_s=settle_s + 0.3 * rotate_s)
-    names = peer_names(peer)
-    peer_args = (spec, drum, material, PAIRS["steel-steel"], engine.dt, settle_s, rotate_s, engine.nl.skin)
-    peers = peer_rates(names, *peer_args) if names else {}
-    ours, theirs = [rate], {k: [v] for k, v in peers.items() if k.endswith("_2_ranks")}
-    for _ in range(rounds - 1):
-        ours.append(bench_run(spec, sim, threads)[1])
-        for k, v in peer_rates(names, *peer_args, ranks=(2,)).items():
-            theirs[k].append(v)
-    ratios = {f"ratio_to_{k}": rate / v for k, v in peers.items()}  # the first round's, one after the other
-    ratios |= {f"ratio_to_{k}": float(np.median(np.divide(ours, v))) for k, v in theirs.items()}
-    peers |= {k: float(np.median(v)) for k, v in theirs.items()}
-    by_round = {"rounds": rounds, "particle_steps_per_s_by_round": ours,
-                **{f"{k}_by_round": v for k, v in theirs.items()}}
-    rate = float(np.median(ours))
     return {
         "case": case, "balls": spec.n_particles, "arch": arch, "threads": threads or "all", "precision": precision,
-        "launch": engine.launch, "dt_s": engine.dt, "skin_fraction": skin, "settle_s": settle_s, "rotate_s": rotate_s,
-        "particle_steps_per_s": rate, **one_thread,
-        **({"thread_scaling": ours[0] / one_thread["particle_steps_per_s_1_thread"]} if one_thread else {}),
-        "steps_per_rebuild": steps_per_rebuild, "contacts_per_particle": contacts,
+        "skin_fraction": skin, "settle_s": settle_s, "rotate_s": rotate_s, "rounds": rounds,
+        "particle_steps_per_s": float(ours.median()), **table.median().to_dict(), **first,
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-        "engine_bytes_per_particle": bytes_per_particle,
         "power_w": power, "power_se_w": se, **{f"share_{k.replace(' ', '_')}": v / total for k, v in phases.items()},
-        **peers, **ratios, **(by_round if rounds > 1 else {}),
+        **({f"{k}_by_round": v.tolist() for k, v in [("particle_steps_per_s", ours), *table.items()]}
+           if rounds > 1 else {}),
     }
 
 

@@ -548,8 +548,8 @@ class BenchConfig:
     lab_duration_s: float = rng(2.0, 0.0, None, lo_open=True, doc="simulated time per MM400 replica (s)")
     peer: str | None = field(default=None, metadata={"choices": (None, "liggghts", "lammps", "both"), "doc":
                                                      "run the same drums in LIGGGHTS, LAMMPS or both (1 and 2 ranks)"})
-    rounds: int = rng(1, 1, None, doc="our run and the peers' 2-rank runs repeated one after the other: "
-                                      "medians of the rates and of the rounds' ratios")
+    rounds: int = rng(1, 1, None, doc="every run (ours, then the peers') repeated one after the other: medians "
+                                      "of the rates and of the ratios taken within each round")
     json: str = field(default="outputs/bench/bench.json", metadata={"doc": "where the figures are written"})
 
 

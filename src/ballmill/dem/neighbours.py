@@ -41,27 +41,24 @@ class NeighbourList:
         self.nb_j = ti.field(ti.i32, (n, k))
         self.rv_n = ti.field(ti.i32, n)
         self.rv_slot = ti.field(ti.i32, (n, k))  # j * capacity + s of the lower partner's slot
-        # history per slot; start = -1: not in contact.  Per open contact also the force on i
-        # (kept to the next step, history too) and the torque on j.  The fields of one slot are
-        # placed side by side (a record per slot), so a step reads one record, not six arrays.
-        self.start = ti.field(ti.i32)
-        self.xi = ti.Vector.field(3, float)
-        self.vn0 = ti.field(float)
-        self.ed = ti.field(float)
-        self.f = ti.Vector.field(3, float)
-        self.t_j = ti.Vector.field(3, float)
-        ti.root.dense(ti.ij, (n, k)).place(self.start, self.vn0, self.ed, self.xi, self.f, self.t_j)
+        # history per slot; start = -1: not in contact
+        self.start = ti.field(ti.i32, (n, k))
+        self.xi = ti.Vector.field(3, float, (n, k))
+        self.vn0 = ti.field(float, (n, k))
+        self.ed = ti.field(float, (n, k))
+        # per open contact: force on i (kept to the next step, history too) and torque on j;
         # per particle: sums over its own list
+        self.f = ti.Vector.field(3, float, (n, k))
+        self.t_j = ti.Vector.field(3, float, (n, k))
         self.f_own = ti.Vector.field(3, float, n)
         self.t_own = ti.Vector.field(3, float, n)
         # scratch for a rebuild: the new list of i before it replaces the old one
         self.new_j = ti.field(ti.i32, (n, k))
-        self.new_start = ti.field(ti.i32)
-        self.new_xi = ti.Vector.field(3, float)
-        self.new_vn0 = ti.field(float)
-        self.new_ed = ti.field(float)
-        self.new_f = ti.Vector.field(3, float)
-        ti.root.dense(ti.ij, (n, k)).place(self.new_start, self.new_vn0, self.new_ed, self.new_xi, self.new_f)
+        self.new_start = ti.field(ti.i32, (n, k))
+        self.new_xi = ti.Vector.field(3, float, (n, k))
+        self.new_vn0 = ti.field(float, (n, k))
+        self.new_ed = ti.field(float, (n, k))
+        self.new_f = ti.Vector.field(3, float, (n, k))
         self.x_ref = ti.Vector.field(3, float, n)
         self.due = ti.field(ti.i32, reps)  # 1: rebuild the replica's list before its next step
         self.any_due = ti.field(ti.i32, ())

@@ -33,11 +33,12 @@ class Walls:
         self._build_primitives(spec)
         n, k, b = self.n, capacity, max(self.n_body, 1)
         self.c_n = ti.field(ti.i32, (2, n))
-        # one record per slot (its fields side by side); c_f: the force on the particle at that step
-        self.c_key, self.c_start = ti.field(ti.i32), ti.field(ti.i32)
-        self.c_vn, self.c_ed = ti.field(float), ti.field(float)
-        self.c_xi, self.c_f = ti.Vector.field(3, float), ti.Vector.field(3, float)
-        ti.root.dense(ti.ijk, (2, n, k)).place(self.c_key, self.c_start, self.c_vn, self.c_ed, self.c_xi, self.c_f)
+        self.c_key = ti.field(ti.i32, (2, n, k))
+        self.c_xi = ti.Vector.field(3, float, (2, n, k))
+        self.c_start = ti.field(ti.i32, (2, n, k))
+        self.c_vn = ti.field(float, (2, n, k))
+        self.c_ed = ti.field(float, (2, n, k))
+        self.c_f = ti.Vector.field(3, float, (2, n, k))  # force on the particle at that step
         self.acc_f = ti.Vector.field(3, float, (n, b))
         self.acc_tq = ti.Vector.field(3, float, (n, b))
         self.acc_tq_roll = ti.Vector.field(3, float, (n, b))
