@@ -35,6 +35,7 @@ from .dem import (
 )
 from .dem.results import batch_mean
 from .dem.vtk import VtkWriter
+from .dem.walls import wall_slots
 from .files import exclusive, read_json, write_json
 from .impacts import impact_statistics
 from .liner import liner_mesh, liner_size
@@ -263,7 +264,7 @@ def drum_spec(drum: DrumConfig, materials, interactions, sim: SimConfig) -> Syst
     if drum.liner.kind != "smooth" and drum.geometry == "stl":
         raise ConfigError(f"mill.liner.kind={drum.liner.kind} builds the shell's mesh itself: use geometry=analytic "
                           "(the end walls stay planes), or draw the lifters into your STL")
-    check_memory(ball_count(drum), sim)
+    check_memory(drum, sim)
     if drum.geometry == "stl" and drum.stl_path:
         check_stl(drum.stl_path)
     mats, pairs = engine_materials(materials, interactions, sim.shear_modulus_scale, drum.ball_material,
@@ -300,9 +301,12 @@ def drum_charge_shape(drum: DrumConfig, trajectories, after_s: float, radii: np.
                 density_kg_per_m3 * (1 - drum.bed_porosity), toe, shoulder)}
 
 
-def check_memory(n_balls: int, sim: SimConfig) -> None:
+def check_memory(drum: DrumConfig, sim: SimConfig) -> None:
     """Refuse a drum whose engine would not fit in the memory this machine has now."""
-    need = memory_estimate_bytes(n_balls, sim.max_contacts_per_particle, sim.event_capacity)
+    n_balls, k = ball_count(drum), sim.max_contacts_per_particle
+    meshes = drum.geometry == "stl" or drum.liner.kind != "smooth"
+    slots = wall_slots(0 if meshes else len(drum_walls(drum)), meshes, k)
+    need = memory_estimate_bytes(n_balls, k, sim.event_capacity, slots)
     have = available_memory_bytes()
     if need > have:
         raise ConfigError(f"mill: {n_balls:.4g} balls need about {need / 2**30:.3g} GiB for the DEM "

@@ -24,9 +24,10 @@ from ..files import write_atomic
 
 log = logging.getLogger(__name__)
 META = "__meta__"
-# the engine's field layout: 2 = fields sized by the particle capacity (particles.capacity); a
-# state of another layout is not restored (the run starts afresh)
-LAYOUT = 2
+# the engine's field layout: 2 = fields sized by the particle capacity (particles.capacity), 3 =
+# and wall-contact slots by the walls (walls.wall_slots); a state of another layout is not
+# restored (the run starts afresh)
+LAYOUT = 3
 
 
 def encode(obj, arrays: list[np.ndarray]):

@@ -51,10 +51,11 @@ GRID_MIN_PARTICLES = 8
 # 1.4x at 1,000, 2.1x at 8,640).  A parallel loop costs ~70 us to dispatch on this machine.
 TEAM_MIN_PARTICLES = 500
 LAUNCHES = ("serial", "team", "parallel")
-# Memory of the engine's fields, measured on a 3,645-ball drum (f64): 525 B per particle plus
-# 244 B per contact slot, 32 B per buffered collision; since then each slot keeps its last
-# force (a pair's copy for the rebuild, a wall contact's two buffers): 316 B (5.6 kB at 16 slots).
-PARTICLE_BYTES, SLOT_BYTES, EVENT_BYTES = 525, 316, 32
+# Memory of the engine's fields (f64), measured on a 3,645-ball drum: 525 B per particle and 32 B
+# per buffered collision; from the fields' sizes, 172 B per neighbour-list slot (partner, reverse
+# slot, history, force, torque and their rebuild copies: 4+4+4+24+8+8+24+24 + 4+4+24+8+8+24) and
+# 144 B per wall-contact slot (key, history and force, double buffered: 2 x (4+24+4+8+8+24)).
+PARTICLE_BYTES, PAIR_SLOT_BYTES, WALL_SLOT_BYTES, EVENT_BYTES = 525, 172, 144, 32
 DRIFT, POSE, PAIRS, FINISH = 1, 2, 4, 8  # phases of a step
 BUILD, LINK = 16, 32  # phases of a neighbour-list rebuild
 STEP = DRIFT | POSE | PAIRS | FINISH
@@ -64,9 +65,11 @@ class SimulationError(RuntimeError):
     """The run went unphysical; the message says what happened and what to change."""
 
 
-def memory_estimate_bytes(n_particles: int, max_contacts: int, event_capacity: int) -> float:
-    """Memory the engine's fields will take (bytes, f64; fields hold capacity(n) particles)."""
-    return capacity(n_particles) * (PARTICLE_BYTES + SLOT_BYTES * max_contacts) + EVENT_BYTES * event_capacity
+def memory_estimate_bytes(n_particles: int, max_contacts: int, event_capacity: int, wall_slots: int) -> float:
+    """Memory the engine's fields will take (bytes, f64; fields hold capacity(n) particles;
+    wall_slots: walls.wall_slots of the system)."""
+    per_particle = PARTICLE_BYTES + PAIR_SLOT_BYTES * max_contacts + WALL_SLOT_BYTES * wall_slots
+    return capacity(n_particles) * per_particle + EVENT_BYTES * event_capacity
 
 
 @dataclass(frozen=True)

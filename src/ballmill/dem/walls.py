@@ -4,8 +4,10 @@ Contacts are found in the body frame of each wall (one frame change per particle
 body), then resolved with the same contact law as sphere-sphere contacts (a wall is a body
 of infinite mass and radius).  Each particle keeps its wall contacts in slots double
 buffered by step parity (old: the previous step, new: this one), keyed by partner:
-cap + w for analytic wall w, cap + n_wall + t for triangle t (cap: the particle capacity).  The reaction on each body is
-accumulated per (particle, body) and summed in particle order when drained.
+cap + w for analytic wall w, cap + n_wall + t for triangle t (cap: the particle capacity).  A
+sphere touches each analytic wall at most once, so without meshes a particle gets one slot per
+wall (a drum: 3); a mesh can give more contacts, and then it gets the configured capacity.  The
+reaction on each body is accumulated per (particle, body) and summed in particle order when drained.
 """
 
 import math
@@ -23,15 +25,21 @@ EDGE_SLOTS = 4  # edge/vertex contacts of one ball with one mesh, in distinct di
 EDGE_SAME = math.cos(math.radians(20.0))  # normals closer than 20 deg: the same contact direction
 
 
+def wall_slots(analytic_walls: int, meshes: bool, capacity: int) -> int:
+    """Wall-contact slots per particle: one per analytic wall when there is no mesh, else `capacity`."""
+    return capacity if meshes else max(analytic_walls, 1)
+
+
 @ti.data_oriented
 class Walls:
     def __init__(self, spec, particles, tables, motions, monitor, book, capacity: int, collision_log: bool):
         self.p, self.tables, self.mo, self.monitor, self.book = particles, tables, motions, monitor, book
         # partner keys: particles are < n, walls from the particle capacity on (fixed at compile time)
-        self.n, self.k_max, self.collision_log = particles.cap, capacity, collision_log
+        self.n, self.collision_log = particles.cap, collision_log
         self.n_body = len(spec.bodies)
         self._build_primitives(spec)
-        n, k, b = self.n, capacity, max(self.n_body, 1)
+        self.k_max = wall_slots(self.n_wall, self.n_mesh > 0, capacity)
+        n, k, b = self.n, self.k_max, max(self.n_body, 1)
         self.c_n = ti.field(ti.i32, (2, n))
         self.c_key = ti.field(ti.i32, (2, n, k))
         self.c_xi = ti.Vector.field(3, float, (2, n, k))
