@@ -1,8 +1,8 @@
-"""Checkpoint and restart: a run's full state (every engine field, the step, the recorder's
-samples so far) saved every so often, so that an interrupted run continues where it was and
-ends with the same bits as an uninterrupted one (same thread count).  A settled bed is the same
-state saved once, when the charge has settled and before the walls move, for other runs of the
-same vessel and charge to start from.
+"""Checkpoint and restart: a run's full state (the fields each engine part names as its STATE,
+the step, the recorder's samples so far) saved every so often, so that an interrupted run
+continues where it was and ends with the same bits as an uninterrupted one (same thread
+count).  A settled bed is the same state saved once, when the charge has settled and before
+the walls move, for other runs of the same vessel and charge to start from.
 
 The file is a NumPy .npz read with allow_pickle=False: the arrays as they are, everything else
 as JSON text inside it (paths and object arrays marked so they come back as they were).  Cache
@@ -130,11 +130,10 @@ class SettledBed:
     path: Path
     key: str
     step: int
-    WITHOUT = ("mo",)  # the engine's wall motions: each run's own
 
     def save(self, engine, recorder) -> None:
         write_state(self.path, {"key": self.key, "layout": LAYOUT, "step": self.step,
-                                "engine": engine.state(self.WITHOUT),
+                                "engine": engine.state(),
                                 "recorder": recorder.samples()}, compress=True)
         log.info("saved the settled bed (t=%.4f s) to %s", engine.time_s, self.path)
 
@@ -144,7 +143,7 @@ class SettledBed:
         if payload is None or payload.get("key") != self.key or payload.get("step") != self.step \
                 or payload.get("layout") != LAYOUT:
             return False
-        engine.restore(payload["engine"], self.WITHOUT)
+        engine.restore(payload["engine"])
         recorder.restore_samples(payload["recorder"])
         log.info("starting from the settled bed in %s (t=%.4f s), saved by an earlier run of this vessel and "
                  "charge", self.path, engine.time_s)

@@ -24,6 +24,7 @@ N_OUT = len(CHANNELS) + 1  # the channels and the elastic energy now
 
 @ti.data_oriented
 class EnergyBook:
+    STATE = ("cumulative", "elastic_pairs", "elastic_walls", "spring_pairs", "spring_walls")
     def __init__(self, particles):
         self.p = particles
         n = particles.cap

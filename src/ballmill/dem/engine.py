@@ -25,7 +25,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import taichi as ti
-from taichi.lang.field import Field
 from tqdm import tqdm
 
 from .checkpoint import Checkpoint, SettledBed
@@ -343,27 +342,24 @@ class Engine:
         bar.close()
         return recorder.finish()
 
-    def _state_fields(self, without: tuple[str, ...] = ()):
-        for part in ("p", "mo", "nl", "walls", "book", "monitor"):
-            if part in without:
-                continue
-            for name, value in vars(getattr(self, part)).items():
-                if isinstance(value, Field):
-                    yield f"{part}.{name}", value
+    def _state_fields(self):
+        for part in ("p", "nl", "walls", "book", "monitor"):
+            for name in type(getattr(self, part)).STATE:
+                yield f"{part}.{name}", getattr(getattr(self, part), name)
 
-    def state(self, without: tuple[str, ...] = ()) -> dict:
-        """Everything a run needs to continue: every field of every part (but the parts named in
-        `without`, e.g. "mo", the wall motions), and the counters."""
-        return {"fields": {name: f.to_numpy() for name, f in self._state_fields(without)},
+    def state(self) -> dict:
+        """Everything a run needs to continue: the fields each part names as its STATE, and the
+        counters.  The rest is the spec's (constants, geometry, the wall motions, posed anew
+        every step) or recomputed by the list rebuild that follows a restore."""
+        return {"fields": {name: f.to_numpy() for name, f in self._state_fields()},
                 "step_index": self.step_index, "accumulated_steps": self._accumulated_steps,
                 "initial_energy_j": self.initial_energy_j}
 
-    def restore(self, state: dict, without: tuple[str, ...] = ()) -> None:
-        """Set the fields of every part (but those in `without`, which the state left out) and the
-        counters.  The neighbour list is rebuilt before the next step: the state may come from a
-        run with another launch, and when the list is rebuilt does not change the results
-        (tests/test_neighbour_list.py)."""
-        for name, f in self._state_fields(without):
+    def restore(self, state: dict) -> None:
+        """Set the state's fields and counters.  The neighbour list is rebuilt before the next
+        step: the state may come from a run with another launch, and when the list is rebuilt
+        does not change the results (tests/test_neighbour_list.py)."""
+        for name, f in self._state_fields():
             f.from_numpy(state["fields"][name])
         self.step_index = state["step_index"]
         self._accumulated_steps, self.initial_energy_j = state["accumulated_steps"], state["initial_energy_j"]

@@ -11,6 +11,8 @@ NEIGHBOURS, WALL_CONTACTS, CELL = 1, 2, 3
 class Monitor:
     """Finished collisions (buffered until drained) and what went wrong during the last steps."""
 
+    STATE = ("ev_count", "ev_int", "ev_val", "max_overlap", "escaped", "overflow", "fast")
+
     def __init__(self, event_capacity: int):
         self.capacity = event_capacity
         self.ev_count = ti.field(ti.i32, ())

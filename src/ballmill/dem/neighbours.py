@@ -28,6 +28,10 @@ from .particles import capacity
 class NeighbourList:
     """Candidate pairs and their per-pair history and force slots (capacity per particle)."""
 
+    # what a saved run keeps: the list and each pair's history (a rebuild carries it over), the
+    # rebuild flags; the rest is rebuilt or recomputed by the next step's pair loop
+    STATE = ("nb_n", "nb_j", "start", "xi", "vn0", "ed", "f", "due", "any_due", "builds")
+
     def __init__(self, spec, particles, monitor, capacity: int, skin_m: float, use_grid: bool,
                  parallel_binning: bool | None = None):
         n, reps = particles.cap, spec.n_replicas

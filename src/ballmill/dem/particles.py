@@ -32,6 +32,8 @@ class Particles:
     """Positions, velocities, spins, forces and constants of n spheres, sorted by replica, in
     fields of `cap` = capacity(n) slots; kernels loop over the first `live[None]` = n."""
 
+    STATE = ("x", "v", "w", "f", "tq")  # what a saved run keeps (the rest is the spec's)
+
     def __init__(self, spec):
         n, reps = spec.n_particles, spec.n_replicas
         counts = np.bincount(spec.replica, minlength=reps)

@@ -32,6 +32,9 @@ def wall_slots(analytic_walls: int, meshes: bool, capacity: int) -> int:
 
 @ti.data_oriented
 class Walls:
+    # what a saved run keeps: the wall contacts and the loads not yet drained (the rest: geometry)
+    STATE = ("c_n", "c_key", "c_xi", "c_start", "c_vn", "c_ed", "c_f", "acc_f", "acc_tq", "acc_tq_roll", "acc_pw",
+             "acc_pw_roll")
     def __init__(self, spec, particles, tables, motions, monitor, book, capacity: int, collision_log: bool):
         self.p, self.tables, self.mo, self.monitor, self.book = particles, tables, motions, monitor, book
         # partner keys: particles are < n, walls from the particle capacity on (fixed at compile time)
