@@ -34,36 +34,36 @@ class NeighbourList:
 
     def __init__(self, spec, particles, monitor, capacity: int, skin_m: float, use_grid: bool,
                  parallel_binning: bool | None = None):
-        n, reps = particles.cap, spec.n_replicas
+        cap, reps = particles.cap, spec.n_replicas
         self.p, self.monitor = particles, monitor
         self.n_rep, self.k_max, self.skin, self.use_grid = reps, capacity, skin_m, use_grid
         # on a CPU one thread bins faster than launching threads; a GPU bins in parallel, then sorts
         on_cpu = ti.lang.impl.current_cfg().arch == ti.cpu
         self.serial_binning = on_cpu if parallel_binning is None else not parallel_binning
         k = capacity
-        self.nb_n = ti.field(ti.i32, n)
-        self.nb_j = ti.field(ti.i32, (n, k))
-        self.rv_n = ti.field(ti.i32, n)
-        self.rv_slot = ti.field(ti.i32, (n, k))  # j * capacity + s of the lower partner's slot
+        self.nb_n = ti.field(ti.i32, cap)
+        self.nb_j = ti.field(ti.i32, (cap, k))
+        self.rv_n = ti.field(ti.i32, cap)
+        self.rv_slot = ti.field(ti.i32, (cap, k))  # j * capacity + s of the lower partner's slot
         # history per slot; start = -1: not in contact
-        self.start = ti.field(ti.i32, (n, k))
-        self.xi = ti.Vector.field(3, float, (n, k))
-        self.vn0 = ti.field(float, (n, k))
-        self.ed = ti.field(float, (n, k))
+        self.start = ti.field(ti.i32, (cap, k))
+        self.xi = ti.Vector.field(3, float, (cap, k))
+        self.vn0 = ti.field(float, (cap, k))
+        self.ed = ti.field(float, (cap, k))
         # per open contact: force on i (kept to the next step, history too) and torque on j;
         # per particle: sums over its own list
-        self.f = ti.Vector.field(3, float, (n, k))
-        self.t_j = ti.Vector.field(3, float, (n, k))
-        self.f_own = ti.Vector.field(3, float, n)
-        self.t_own = ti.Vector.field(3, float, n)
+        self.f = ti.Vector.field(3, float, (cap, k))
+        self.t_j = ti.Vector.field(3, float, (cap, k))
+        self.f_own = ti.Vector.field(3, float, cap)
+        self.t_own = ti.Vector.field(3, float, cap)
         # scratch for a rebuild: the new list of i before it replaces the old one
-        self.new_j = ti.field(ti.i32, (n, k))
-        self.new_start = ti.field(ti.i32, (n, k))
-        self.new_xi = ti.Vector.field(3, float, (n, k))
-        self.new_vn0 = ti.field(float, (n, k))
-        self.new_ed = ti.field(float, (n, k))
-        self.new_f = ti.Vector.field(3, float, (n, k))
-        self.x_ref = ti.Vector.field(3, float, n)
+        self.new_j = ti.field(ti.i32, (cap, k))
+        self.new_start = ti.field(ti.i32, (cap, k))
+        self.new_xi = ti.Vector.field(3, float, (cap, k))
+        self.new_vn0 = ti.field(float, (cap, k))
+        self.new_ed = ti.field(float, (cap, k))
+        self.new_f = ti.Vector.field(3, float, (cap, k))
+        self.x_ref = ti.Vector.field(3, float, cap)
         self.due = ti.field(ti.i32, reps)  # 1: rebuild the replica's list before its next step
         self.any_due = ti.field(ti.i32, ())
         self.builds = ti.field(ti.i32, ())
@@ -80,8 +80,6 @@ class NeighbourList:
         cells = int(np.prod(dims)) * self.n_rep
         self.dims = ti.Vector.field(3, ti.i32, ())
         self.dims[None] = dims.astype(np.int32)
-        self.n_cells = ti.field(ti.i32, ())
-        self.n_cells[None] = cells
         r_min = float(spec.radius_m.min())
         # centres at least 2 r_min (1 - 5 % overlap) apart: one size, at most (h / 1.9 r_min + 1)^3 in a
         # cell; several sizes (h up to 2 r_max + skin), at most what the densest packing (0.7405) of
@@ -94,6 +92,12 @@ class NeighbourList:
         self.cell_list = ti.field(ti.i32, (capacity(cells), self.cell_cap))
 
     # ------------------------------------------------------------------ cell grid
+    @ti.func
+    def cells(self):
+        """Cells of the grid in use (every replica)."""
+        dims = self.dims[None]
+        return dims[0] * dims[1] * dims[2] * self.n_rep
+
     @ti.func
     def cell_of(self, i):
         rel = (self.p.x[i] - self.p.domain_lo[None]) / self.h
@@ -199,7 +203,7 @@ class NeighbourList:
         """Serial rebuild of replica r (one thread; used inside multi-step kernels)."""
         i0, i1 = self.p.rep_start[r], self.p.rep_end[r]
         if ti.static(self.use_grid):
-            per_rep = self.n_cells[None] // self.n_rep
+            per_rep = self.cells() // self.n_rep
             for c in range(r * per_rep, (r + 1) * per_rep):
                 self.cell_count[c] = 0
             for i in range(i0, i1):  # in id order, so each cell is already sorted
@@ -215,7 +219,7 @@ class NeighbourList:
     def bin_all(self):
         """Every particle into its cell, serially in id order, so each cell is already sorted."""
         if ti.static(self.use_grid):
-            for c in range(self.n_cells[None]):
+            for c in range(self.cells()):
                 self.cell_count[c] = 0
             for i in range(self.p.live[None]):
                 self.bin(i)
@@ -232,11 +236,11 @@ class NeighbourList:
     def build_all(self):
         """Parallel rebuild of every replica."""
         if ti.static(self.use_grid and not self.serial_binning):
-            for c in range(self.n_cells[None]):
+            for c in range(self.cells()):
                 self.cell_count[c] = 0
             for i in range(self.p.live[None]):
                 self.bin(i)
-            for c in range(self.n_cells[None]):
+            for c in range(self.cells()):
                 self.sort_row(self.cell_list, c, ti.min(self.cell_count[c], self.cell_cap))
         else:
             ti.loop_config(serialize=True)

@@ -38,18 +38,18 @@ class Particles:
         n, reps = spec.n_particles, spec.n_replicas
         counts = np.bincount(spec.replica, minlength=reps)
         self.n, self.n_rep, self.counts = n, reps, counts
-        self.cap = n = capacity(n)
+        self.cap = cap = capacity(n)
         self.live = ti.field(ti.i32, ())
-        self.x = ti.Vector.field(3, float, n)
-        self.v = ti.Vector.field(3, float, n)
-        self.w = ti.Vector.field(3, float, n)
-        self.f = ti.Vector.field(3, float, n)
-        self.tq = ti.Vector.field(3, float, n)
-        self.rad = ti.field(float, n)
-        self.mass = ti.field(float, n)
-        self.inertia = ti.field(float, n)
-        self.mat = ti.field(ti.i32, n)
-        self.rep = ti.field(ti.i32, n)
+        self.x = ti.Vector.field(3, float, cap)
+        self.v = ti.Vector.field(3, float, cap)
+        self.w = ti.Vector.field(3, float, cap)
+        self.f = ti.Vector.field(3, float, cap)
+        self.tq = ti.Vector.field(3, float, cap)
+        self.rad = ti.field(float, cap)
+        self.mass = ti.field(float, cap)
+        self.inertia = ti.field(float, cap)
+        self.mat = ti.field(ti.i32, cap)
+        self.rep = ti.field(ti.i32, cap)
         self.rep_start = ti.field(ti.i32, reps)
         self.rep_end = ti.field(ti.i32, reps)
         self.gravity = ti.Vector.field(3, float, ())
@@ -62,7 +62,7 @@ class Particles:
                               (self.w, spec.angular_velocity_rad_per_s), (self.rad, spec.radius_m),
                               (self.mass, self.mass_np), (self.inertia, 0.4 * self.mass_np * spec.radius_m**2),
                               (self.mat, spec.material.astype(np.int32)), (self.rep, spec.replica.astype(np.int32))):
-            field.from_numpy(padded(values, n))
+            field.from_numpy(padded(values, cap))
         self.live[None] = self.n
         ends = np.cumsum(counts)
         self.rep_start.from_numpy((ends - counts).astype(np.int32))

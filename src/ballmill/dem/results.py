@@ -127,15 +127,15 @@ class Recorder:
             return
         i, key = ints[:, 0], ints[:, 1]
         walls = engine.walls
-        n, nw, nt = walls.n, walls.n_wall, walls.n_tri  # keys of walls start at walls.n
-        is_pair = key < n
+        cap, nw, nt = walls.cap, walls.n_wall, walls.n_tri  # keys of walls start at walls.cap
+        is_pair = key < cap
         body = np.full(len(key), -1)
-        wall = (key >= n) & (key < n + nw)
+        wall = (key >= cap) & (key < cap + nw)
         if nw:
-            body[wall] = walls.w_body.to_numpy()[key[wall] - n]
-        mesh = key >= n + nw + nt
+            body[wall] = walls.w_body.to_numpy()[key[wall] - cap]
+        mesh = key >= cap + nw + nt
         if walls.n_mesh:
-            body[mesh] = walls.m_body.to_numpy()[key[mesh] - n - nw - nt]
+            body[mesh] = walls.m_body.to_numpy()[key[mesh] - cap - nw - nt]
         m = engine.p.mass_np
         m_j = m[np.where(is_pair, key, i)]
         m_eff = np.where(is_pair, m[i] * m_j / (m[i] + m_j), m[i])

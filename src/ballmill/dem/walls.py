@@ -37,24 +37,24 @@ class Walls:
              "acc_pw_roll")
     def __init__(self, spec, particles, tables, motions, monitor, book, capacity: int, collision_log: bool):
         self.p, self.tables, self.mo, self.monitor, self.book = particles, tables, motions, monitor, book
-        # partner keys: particles are < n, walls from the particle capacity on (fixed at compile time)
-        self.n, self.collision_log = particles.cap, collision_log
+        # partner keys: particles are < cap, walls from the particle capacity on (fixed at compile time)
+        self.cap, self.collision_log = particles.cap, collision_log
         self.n_body = len(spec.bodies)
         self._build_primitives(spec)
         self.k_max = wall_slots(self.n_wall, self.n_mesh > 0, capacity)
-        n, k, b = self.n, self.k_max, max(self.n_body, 1)
-        self.c_n = ti.field(ti.i32, (2, n))
-        self.c_key = ti.field(ti.i32, (2, n, k))
-        self.c_xi = ti.Vector.field(3, float, (2, n, k))
-        self.c_start = ti.field(ti.i32, (2, n, k))
-        self.c_vn = ti.field(float, (2, n, k))
-        self.c_ed = ti.field(float, (2, n, k))
-        self.c_f = ti.Vector.field(3, float, (2, n, k))  # force on the particle at that step
-        self.acc_f = ti.Vector.field(3, float, (n, b))
-        self.acc_tq = ti.Vector.field(3, float, (n, b))
-        self.acc_tq_roll = ti.Vector.field(3, float, (n, b))
-        self.acc_pw = ti.field(float, (n, b))
-        self.acc_pw_roll = ti.field(float, (n, b))
+        cap, k, b = self.cap, self.k_max, max(self.n_body, 1)
+        self.c_n = ti.field(ti.i32, (2, cap))
+        self.c_key = ti.field(ti.i32, (2, cap, k))
+        self.c_xi = ti.Vector.field(3, float, (2, cap, k))
+        self.c_start = ti.field(ti.i32, (2, cap, k))
+        self.c_vn = ti.field(float, (2, cap, k))
+        self.c_ed = ti.field(float, (2, cap, k))
+        self.c_f = ti.Vector.field(3, float, (2, cap, k))  # force on the particle at that step
+        self.acc_f = ti.Vector.field(3, float, (cap, b))
+        self.acc_tq = ti.Vector.field(3, float, (cap, b))
+        self.acc_tq_roll = ti.Vector.field(3, float, (cap, b))
+        self.acc_pw = ti.field(float, (cap, b))
+        self.acc_pw_roll = ti.field(float, (cap, b))
 
     # ---------------------------------------------------------------- set-up
     def _build_primitives(self, spec) -> None:
@@ -160,11 +160,11 @@ class Walls:
     def partner_class(self, key):
         """Key of the partner for collision bookkeeping: triangles collapse to their mesh."""
         out = key
-        if ti.static(self.n_mesh > 0) and key >= self.n + self.n_wall:
-            t = key - self.n - self.n_wall
+        if ti.static(self.n_mesh > 0) and key >= self.cap + self.n_wall:
+            t = key - self.cap - self.n_wall
             for m in range(self.n_mesh):
                 if self.m_tri0[m] <= t < self.m_tri1[m]:
-                    out = self.n + self.n_wall + self.n_tri + m
+                    out = self.cap + self.n_wall + self.n_tri + m
         return out
 
     # ---------------------------------------------------------------- contacts of one particle
@@ -208,7 +208,7 @@ class Walls:
         triangle of the same mesh the particle has left (a ball rolling across facets)."""
         slot = self.find_slot(i, old, key)
         if slot < 0:
-            base = self.n + self.n_wall
+            base = self.cap + self.n_wall
             for s in range(self.c_n[old, i]):
                 t = self.c_key[old, i, s] - base
                 if slot < 0 and self.m_tri0[m] <= t < self.m_tri1[m]:
@@ -278,7 +278,7 @@ class Walls:
                                 if nrm.dot(ti.Vector([face_n[f, 0], face_n[f, 1], face_n[f, 2]])) > EDGE_SAME:
                                     touch = False
                     if touch:
-                        key = self.n + self.n_wall + t
+                        key = self.cap + self.n_wall + t
                         slot = self.mesh_slot(i, old, key, m, xb)
                         df, dt_, de, cnt = self.contact(i, key, b, self.t_mat[t], delta, d / dist, p, old, new, cnt, k,
                                                         slot)
@@ -305,8 +305,8 @@ class Walls:
                 self.w_kind[w], self.w_point[w], self.w_axis[w], self.w_radius[w], self.w_half[w], xb, p.rad[i]
             )
             if delta > 0.0:
-                slot = self.find_slot(i, old, self.n + w)
-                df, dt_, de, cnt = self.contact(i, self.n + w, b, self.w_mat[w], delta, nb, cb, old, new, cnt, k, slot)
+                slot = self.find_slot(i, old, self.cap + w)
+                df, dt_, de, cnt = self.contact(i, self.cap + w, b, self.w_mat[w], delta, nb, cb, old, new, cnt, k, slot)
                 f += df
                 t += dt_
                 elastic += de
