@@ -25,8 +25,8 @@ from ..files import write_atomic
 log = logging.getLogger(__name__)
 META = "__meta__"
 # the engine's field layout: 2 = fields sized by the particle capacity (particles.capacity), 3 =
-# and wall-contact slots by the walls (walls.wall_slots); a state of another layout is not
-# restored (the run starts afresh)
+# the same with each particle's wall-contact slots sized by the walls (walls.wall_slots); a state
+# of another layout is not restored (the run starts afresh)
 LAYOUT = 3
 
 
