@@ -69,7 +69,8 @@ class SimConfig:
         "revolution of averaging; null: always the whole duration)"))
     trajectory_every: int = rng(0, 0, None, doc="record particle states every n samples (0: never)")
     vtk_every: int = rng(0, 0, None, doc="write ParaView files (particles, walls) every n samples (0: never)")
-    max_contacts_per_particle: int = rng(16, 1, None, doc="neighbour-list and wall-contact slots per particle")
+    max_contacts_per_particle: int = rng(16, 1, 64, doc="neighbour-list and wall-contact slots per particle "
+                                                       "(at most 64: one bit each in the engine's open-contact mask)")
     checkpoint_every_wall_s: float | None = rng(60.0, 0.0, None, lo_open=True, doc=(
         "wall-clock time between checkpoints of a drum run (s; a run shorter than this writes none); null: none"))
     neighbour_skin: float = rng(0.5, 0.0, None, lo_open=True,

@@ -5,7 +5,10 @@ r_i + r_j + skin when the list was built, with the contact history of each pair 
 same slot (tangential spring, collision start step, impact speed, energy dissipated), and
 the force and torques of the pair, written there by `pairs.py` and gathered per particle
 in slot order (`gather`).  Partners are kept in id order, so the sums depend neither on
-thread scheduling nor on the skin or when the list was rebuilt: identical bits.  Each particle
+thread scheduling nor on the skin or when the list was rebuilt: identical bits.  A bit mask
+per particle marks the slots whose contact is open, so the pair loop and the gather read a
+slot's record only for an open contact; records are stored slot by slot (slot s of i beside
+slot s of i + 1), so a step's reads of them lie close together (layout.py).  Each particle
 also lists the slots (j, s) of the lower partners that hold it, the reverse list.
 
 The list stays valid while no particle has moved more than skin / 2 from where it was at
@@ -20,8 +23,17 @@ import math
 import numpy as np
 import taichi as ti
 
+from .layout import records
 from .monitor import CELL, NEIGHBOURS
 from .particles import capacity
+
+MAX_SLOTS = 64  # list slots per particle: one bit each in the open-contact mask
+
+
+@ti.func
+def bit(s):
+    """The open-contact mask's bit of slot s."""
+    return ti.u64(1) << ti.cast(s, ti.u64)
 
 
 @ti.data_oriented
@@ -36,26 +48,27 @@ class NeighbourList:
                  parallel_binning: bool | None = None):
         cap, reps = particles.cap, spec.n_replicas
         self.p, self.monitor = particles, monitor
+        if not 1 <= capacity <= MAX_SLOTS:
+            raise ValueError(f"max_contacts_per_particle={capacity} must lie in [1, {MAX_SLOTS}]")
         self.n_rep, self.k_max, self.skin, self.use_grid = reps, capacity, skin_m, use_grid
         # on a CPU one thread bins faster than launching threads; a GPU bins in parallel, then sorts
         on_cpu = ti.lang.impl.current_cfg().arch == ti.cpu
         self.serial_binning = on_cpu if parallel_binning is None else not parallel_binning
         k = capacity
         self.nb_n = ti.field(ti.i32, cap)
-        self.nb_j = ti.field(ti.i32, (cap, k))
         self.rv_n = ti.field(ti.i32, cap)
         self.rv_slot = ti.field(ti.i32, (cap, k))  # j * capacity + s of the lower partner's slot
-        # history per slot; start = -1: not in contact
-        self.start = ti.field(ti.i32, (cap, k))
-        self.xi = ti.Vector.field(3, float, (cap, k))
-        self.vn0 = ti.field(float, (cap, k))
-        self.ed = ti.field(float, (cap, k))
-        # per open contact: force on i (kept to the next step, history too) and torque on j;
+        self.nb_j = ti.field(ti.i32, (cap, k))
+        # bit s set: slot s is an open contact (a pair loop or gather reads no closed slot's record)
+        self.open = ti.field(ti.u64, cap)
+        # one record per slot: the pair's history (start = -1: not in contact); per open contact
+        # the force on i (kept to the next step, history too) and the torque on j
+        self.start, self.vn0, self.ed = ti.field(ti.i32), ti.field(float), ti.field(float)
+        self.f, self.t_j, self.xi = ti.Vector.field(3, float), ti.Vector.field(3, float), ti.Vector.field(3, float)
+        records((cap, k), self.start, self.f, self.t_j, self.xi, self.vn0, self.ed, slot_major=True)
         # per particle: sums over its own list
-        self.f = ti.Vector.field(3, float, (cap, k))
-        self.t_j = ti.Vector.field(3, float, (cap, k))
-        self.f_own = ti.Vector.field(3, float, cap)
-        self.t_own = ti.Vector.field(3, float, cap)
+        self.f_own, self.t_own = ti.Vector.field(3, float), ti.Vector.field(3, float)
+        records(cap, self.f_own, self.t_own)
         # scratch for a rebuild: the new list of i before it replaces the old one
         self.new_j = ti.field(ti.i32, (cap, k))
         self.new_start = ti.field(ti.i32, (cap, k))
@@ -181,10 +194,13 @@ class NeighbourList:
                 if self.nb_j[i, s] == j:
                     self.new_start[i, c], self.new_xi[i, c] = self.start[i, s], self.xi[i, s]
                     self.new_vn0[i, c], self.new_ed[i, c], self.new_f[i, c] = self.vn0[i, s], self.ed[i, s], self.f[i, s]
+        open_ = ti.u64(0)
         for c in range(cnt):
             self.nb_j[i, c], self.start[i, c], self.xi[i, c] = self.new_j[i, c], self.new_start[i, c], self.new_xi[i, c]
             self.vn0[i, c], self.ed[i, c], self.f[i, c] = self.new_vn0[i, c], self.new_ed[i, c], self.new_f[i, c]
-        self.nb_n[i], self.rv_n[i] = cnt, low
+            if self.new_start[i, c] >= 0:
+                open_ |= bit(c)
+        self.nb_n[i], self.rv_n[i], self.open[i] = cnt, low, open_
         self.x_ref[i] = self.p.x[i]
 
     @ti.func
@@ -264,7 +280,7 @@ class NeighbourList:
             slot = self.rv_slot[i, q]
             if slot >= 0:  # always, unless j's list overflowed (then the run stops)
                 j, s = slot // self.k_max, slot % self.k_max
-                if self.start[j, s] >= 0:
+                if self.open[j] & bit(s):
                     f -= self.f[j, s]
                     t += self.t_j[j, s]
         return f, t

@@ -3,6 +3,7 @@
 import taichi as ti
 
 from .contact import absorbed_power, rolling_torque
+from .neighbours import bit
 
 
 @ti.data_oriented
@@ -23,6 +24,7 @@ class PairContacts:
         dt = p.dt[None]
         f_i, t_i = zero, zero
         energy = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])  # normal, tangential, rolling (W); Hertz, spring (J)
+        open_ = nl.open[i]
         for s in range(nl.nb_n[i]):
             j = nl.nb_j[i, s]
             d = p.x[j] - p.x[i]
@@ -34,9 +36,10 @@ class PairContacts:
                 n = d / dist  # from i towards j
                 ca, cb = p.rad[i] - 0.5 * delta, p.rad[j] - 0.5 * delta
                 v_rel = p.v[i] + p.w[i].cross(ca * n) - p.v[j] + p.w[j].cross(cb * n)
-                start, xi, vn0, ed, f_then = nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s], nl.f[i, s]
-                if start < 0:  # a new contact
-                    start, xi, vn0, ed, f_then = k, zero, v_rel.dot(n), 0.0, zero
+                start, xi, vn0, ed, f_then = k, zero, v_rel.dot(n), 0.0, zero  # a new contact
+                if open_ & bit(s):
+                    start, xi, vn0, ed, f_then = nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s], nl.f[i, s]
+                open_ |= bit(s)
                 r, ma, mb = p.rep[i], p.mat[i], p.mat[j]
                 m_eff = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j])
                 r_eff = p.rad[i] * p.rad[j] / sum_r
@@ -54,10 +57,12 @@ class PairContacts:
                 f_i += f_now
                 t_i += (ca * n).cross(ft) + roll_a
                 nl.t_j[i, s] = (cb * n).cross(ft) + roll_b
-            elif nl.start[i, s] >= 0:  # the contact ended at this step
+            elif open_ & bit(s):  # the contact ended at this step
                 if ti.static(self.collision_log):
                     self.monitor.collision(i, j, nl.start[i, s], k, nl.vn0[i, s], nl.ed[i, s])
                 nl.start[i, s] = -1
+                open_ ^= bit(s)
+        nl.open[i] = open_
         nl.f_own[i], nl.t_own[i] = f_i, t_i
         self.book.add(i, 0.0, energy[0], energy[1], energy[2])
         self.book.hold(i, energy[3], energy[4], self.book.elastic_pairs, self.book.spring_pairs)

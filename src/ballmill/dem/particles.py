@@ -9,6 +9,8 @@ import math
 import numpy as np
 import taichi as ti
 
+from .layout import records
+
 
 def capacity(n: int) -> int:
     """Slots allocated for n items (particles, grid cells): the next power of two up to 8,192
@@ -40,15 +42,12 @@ class Particles:
         self.n, self.n_rep, self.counts = n, reps, counts
         self.cap = cap = capacity(n)
         self.live = ti.field(ti.i32, ())
-        self.x = ti.Vector.field(3, float, cap)
-        self.v = ti.Vector.field(3, float, cap)
-        self.w = ti.Vector.field(3, float, cap)
-        self.f = ti.Vector.field(3, float, cap)
-        self.tq = ti.Vector.field(3, float, cap)
-        self.rad = ti.field(float, cap)
-        self.mass = ti.field(float, cap)
-        self.inertia = ti.field(float, cap)
-        self.mat = ti.field(ti.i32, cap)
+        # what a contact reads of a partner, in one record; then what the integrator adds
+        self.x, self.v, self.w = ti.Vector.field(3, float), ti.Vector.field(3, float), ti.Vector.field(3, float)
+        self.rad, self.mass, self.mat = ti.field(float), ti.field(float), ti.field(ti.i32)
+        records(cap, self.x, self.v, self.w, self.rad, self.mass, self.mat)
+        self.f, self.tq, self.inertia = ti.Vector.field(3, float), ti.Vector.field(3, float), ti.field(float)
+        records(cap, self.f, self.tq, self.inertia)
         self.rep = ti.field(ti.i32, cap)
         self.rep_start = ti.field(ti.i32, reps)
         self.rep_end = ti.field(ti.i32, reps)

@@ -17,6 +17,7 @@ import taichi as ti
 
 from .contact import absorbed_power, closest_point_on_triangle, rolling_torque, wall_geometry
 from .geometry import CAPSULE, CYLINDER, PLANE, Capsule, Cylinder, Mesh, Plane
+from .layout import records
 from .monitor import WALL_CONTACTS
 from .motion import unit
 
@@ -44,17 +45,14 @@ class Walls:
         self.k_max = wall_slots(self.n_wall, self.n_mesh > 0, capacity)
         cap, k, b = self.cap, self.k_max, max(self.n_body, 1)
         self.c_n = ti.field(ti.i32, (2, cap))
-        self.c_key = ti.field(ti.i32, (2, cap, k))
-        self.c_xi = ti.Vector.field(3, float, (2, cap, k))
-        self.c_start = ti.field(ti.i32, (2, cap, k))
-        self.c_vn = ti.field(float, (2, cap, k))
-        self.c_ed = ti.field(float, (2, cap, k))
-        self.c_f = ti.Vector.field(3, float, (2, cap, k))  # force on the particle at that step
-        self.acc_f = ti.Vector.field(3, float, (cap, b))
-        self.acc_tq = ti.Vector.field(3, float, (cap, b))
-        self.acc_tq_roll = ti.Vector.field(3, float, (cap, b))
-        self.acc_pw = ti.field(float, (cap, b))
-        self.acc_pw_roll = ti.field(float, (cap, b))
+        # one record per (parity, particle, slot); c_f: the force on the particle at that step
+        self.c_key, self.c_start, self.c_vn, self.c_ed = ti.field(ti.i32), ti.field(ti.i32), ti.field(float), ti.field(float)
+        self.c_xi, self.c_f = ti.Vector.field(3, float), ti.Vector.field(3, float)
+        records((2, cap, k), self.c_key, self.c_start, self.c_vn, self.c_ed, self.c_xi, self.c_f)
+        # one record per (particle, body)
+        self.acc_f, self.acc_tq, self.acc_tq_roll = (ti.Vector.field(3, float) for _ in range(3))
+        self.acc_pw, self.acc_pw_roll = ti.field(float), ti.field(float)
+        records((cap, b), self.acc_f, self.acc_tq, self.acc_tq_roll, self.acc_pw, self.acc_pw_roll)
 
     # ---------------------------------------------------------------- set-up
     def _build_primitives(self, spec) -> None:
