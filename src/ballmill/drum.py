@@ -264,9 +264,9 @@ def drum_spec(drum: DrumConfig, materials, interactions, sim: SimConfig) -> Syst
     if drum.liner.kind != "smooth" and drum.geometry == "stl":
         raise ConfigError(f"mill.liner.kind={drum.liner.kind} builds the shell's mesh itself: use geometry=analytic "
                           "(the end walls stay planes), or draw the lifters into your STL")
-    check_memory(drum, sim)
     if drum.geometry == "stl" and drum.stl_path:
         check_stl(drum.stl_path)
+    check_memory(drum, sim)
     mats, pairs = engine_materials(materials, interactions, sim.shear_modulus_scale, drum.ball_material,
                                    drum.wall_material)
     return drum_system(drum, mats, pairs, sim)
@@ -304,8 +304,9 @@ def drum_charge_shape(drum: DrumConfig, trajectories, after_s: float, radii: np.
 def check_memory(drum: DrumConfig, sim: SimConfig) -> None:
     """Refuse a drum whose engine would not fit in the memory this machine has now."""
     n_balls, k = ball_count(drum), sim.max_contacts_per_particle
-    meshes = drum.geometry == "stl" or drum.liner.kind != "smooth"
-    slots = wall_slots(0 if meshes else len(drum_walls(drum)), meshes, k)
+    walls = drum_walls(drum)
+    meshes = sum(isinstance(w, Mesh) for w in walls)
+    slots = wall_slots(len(walls) - meshes, meshes > 0, k)
     need = memory_estimate_bytes(n_balls, k, sim.event_capacity, slots)
     have = available_memory_bytes()
     if need > have:

@@ -40,9 +40,10 @@ def bit(s):
 class NeighbourList:
     """Candidate pairs and their per-pair history and force slots (capacity per particle)."""
 
-    # what a saved run keeps: the list and each pair's history (a rebuild carries it over), the
-    # rebuild flags; the rest is rebuilt or recomputed by the next step's pair loop
-    STATE = ("nb_n", "nb_j", "start", "xi", "vn0", "ed", "f", "due", "any_due", "builds")
+    # what a saved run keeps: the list and each pair's history (a rebuild carries it over) and the
+    # rebuild count; the rest is rebuilt (a restore marks the list due) or recomputed by the next
+    # step's pair loop
+    STATE = ("nb_n", "nb_j", "start", "xi", "vn0", "ed", "f", "builds")
 
     def __init__(self, spec, particles, monitor, capacity: int, skin_m: float, use_grid: bool,
                  parallel_binning: bool | None = None):
@@ -106,10 +107,15 @@ class NeighbourList:
 
     # ------------------------------------------------------------------ cell grid
     @ti.func
+    def cells_per_replica(self):
+        """Cells of the grid in use for one replica."""
+        dims = self.dims[None]
+        return dims[0] * dims[1] * dims[2]
+
+    @ti.func
     def cells(self):
         """Cells of the grid in use (every replica)."""
-        dims = self.dims[None]
-        return dims[0] * dims[1] * dims[2] * self.n_rep
+        return self.cells_per_replica() * self.n_rep
 
     @ti.func
     def cell_of(self, i):
@@ -219,7 +225,7 @@ class NeighbourList:
         """Serial rebuild of replica r (one thread; used inside multi-step kernels)."""
         i0, i1 = self.p.rep_start[r], self.p.rep_end[r]
         if ti.static(self.use_grid):
-            per_rep = self.cells() // self.n_rep
+            per_rep = self.cells_per_replica()
             for c in range(r * per_rep, (r + 1) * per_rep):
                 self.cell_count[c] = 0
             for i in range(i0, i1):  # in id order, so each cell is already sorted
