@@ -140,7 +140,10 @@ def test_energy_rule_design_converges_and_records_its_fixed_point(calibrated, tm
     record = run_scenario(cfg, tmp_path)
     assert 1 <= record["fixed_point_iterations"] <= 8
     history = [float(t) for t in record["fixed_point_history_min"].split()]
-    assert history[0] == 20.0 and history[-1] == pytest.approx(record["residence_time_min"])
+    # the answer is the simulated residence time whose dose came closest to the target, not
+    # necessarily the last one simulated
+    assert history[0] == 20.0
+    assert any(t == pytest.approx(record["residence_time_min"], rel=1e-5) for t in history)
     miss = record["fixed_point_dose_miss"]  # a short run's rate is rough: the bracket may close off the target
     assert abs(miss) < 0.15
     assert record["collision_dose_kj_per_kg_pet"] == pytest.approx(record["target_dose_kj_per_kg_pet"] * (1 + miss))
