@@ -212,13 +212,13 @@ def drum_walls(drum: DrumConfig) -> tuple:
     return shell, Plane((0, -half, 0), (0, 1, 0)), Plane((0, half, 0), (0, -1, 0))
 
 
-def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, sim: SimConfig) -> SystemSpec:
-    """The drum, its charge at rest (sizes shuffled over the lattice by the seed), turning from
-    t = sim.settle_s at drum_speed_rpm."""
+def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, sim: SimConfig,
+                 walls: tuple) -> SystemSpec:
+    """The drum (its `drum_walls`), its charge at rest (sizes shuffled over the lattice by the
+    seed), turning from t = sim.settle_s at drum_speed_rpm."""
     radii = ball_radii_as_run(drum, sim.seed)
     n = len(radii)
     big_r, half, r = drum.inner_diameter_m / 2, drum.inner_length_m / 2, largest_radius_m(drum)
-    walls = drum_walls(drum)
     omega = drum_speed_rpm(drum) * 2 * math.pi / 60
     motion = Motion(axis=AXIS, angular_velocity_rad_per_s=omega, start_time_s=sim.settle_s)
     margin = 4 * r
@@ -266,10 +266,11 @@ def drum_spec(drum: DrumConfig, materials, interactions, sim: SimConfig) -> Syst
                           "(the end walls stay planes), or draw the lifters into your STL")
     if drum.geometry == "stl" and drum.stl_path:
         check_stl(drum.stl_path)
-    check_memory(drum, sim)
+    walls = drum_walls(drum)
+    check_memory(drum, sim, walls)
     mats, pairs = engine_materials(materials, interactions, sim.shear_modulus_scale, drum.ball_material,
                                    drum.wall_material)
-    return drum_system(drum, mats, pairs, sim)
+    return drum_system(drum, mats, pairs, sim, walls)
 
 
 def charge_fill(drum: DrumConfig) -> float:
@@ -301,10 +302,10 @@ def drum_charge_shape(drum: DrumConfig, trajectories, after_s: float, radii: np.
                 density_kg_per_m3 * (1 - drum.bed_porosity), toe, shoulder)}
 
 
-def check_memory(drum: DrumConfig, sim: SimConfig) -> None:
-    """Refuse a drum whose engine would not fit in the memory this machine has now."""
+def check_memory(drum: DrumConfig, sim: SimConfig, walls: tuple) -> None:
+    """Refuse a drum (with its `drum_walls`) whose engine would not fit in the memory this
+    machine has now."""
     n_balls, k = ball_count(drum), sim.max_contacts_per_particle
-    walls = drum_walls(drum)
     meshes = sum(isinstance(w, Mesh) for w in walls)
     slots = wall_slots(len(walls) - meshes, meshes > 0, k)
     need = memory_estimate_bytes(n_balls, k, sim.event_capacity, slots)
