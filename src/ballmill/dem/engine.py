@@ -198,23 +198,27 @@ class Engine:
                     self.finish(i, k, True)
 
     @ti.func
-    def team_phase(self, t, base, k, phase: ti.template()):
-        """Member t's share of one phase (chunks of particles as it frees up); the next base."""
-        c, chunk, n = self.team.ticket(base), self.team.chunk[None], self.p.live[None]
-        while c < self.team.chunks[None]:
-            for i in range(c * chunk, ti.min((c + 1) * chunk, n)):
-                if ti.static(phase == DRIFT):
-                    self.p.kick_drift(i, self.monitor)
-                if ti.static(phase == PAIRS):
-                    self.pairs.forces(i, k)
-                if ti.static(phase == FINISH):
-                    self.finish(i, k, True)
-                if ti.static(phase == BUILD):
-                    self.nl.build_particle(i)
-                if ti.static(phase == LINK):
-                    self.nl.link_reverse(i)
-            c = self.team.ticket(base)
-        return self.team.next_base(base)
+    def team_phase(self, t, phase_id, k, phase: ti.template()):
+        """Member t's share of one phase: its own chunks, then chunks of members still busy (team.py);
+        returns the next phase's number."""
+        chunk, n = self.team.chunk[None], self.p.live[None]
+        for v in range(self.team.size):
+            first, last = self.team.own((t + v) % self.team.size)
+            for m in range(last - first):
+                c = first + m if v == 0 else last - 1 - m
+                if self.team.take(c, phase_id):
+                    for i in range(c * chunk, ti.min((c + 1) * chunk, n)):
+                        if ti.static(phase == DRIFT):
+                            self.p.kick_drift(i, self.monitor)
+                        if ti.static(phase == PAIRS):
+                            self.pairs.forces(i, k)
+                        if ti.static(phase == FINISH):
+                            self.finish(i, k, True)
+                        if ti.static(phase == BUILD):
+                            self.nl.build_particle(i)
+                        if ti.static(phase == LINK):
+                            self.nl.link_reverse(i)
+        return phase_id + 1
 
     @ti.kernel
     def _team_steps(self, k0: ti.i32, nsteps: ti.i32):
@@ -222,27 +226,27 @@ class Engine:
         pair contacts, then wall contacts and the second half kick, with a barrier after each."""
         ti.loop_config(block_dim=SPACING)
         for q in range(self.team.members):
-            t, base, passed = self.team.member(q), 0, 0
+            t, phase_id, passed = self.team.member(q), 0, 0
             for s in range(nsteps if t >= 0 else 0):
                 k = k0 + s + 1
                 if ti.atomic_or(self.nl.any_due[None], 0):
                     if t == 0:
                         self.nl.bin_all()
                     passed = self.team.barrier(passed)
-                    base = self.team_phase(t, base, k, BUILD)
+                    phase_id = self.team_phase(t, phase_id, k, BUILD)
                     passed = self.team.barrier(passed)
-                    base = self.team_phase(t, base, k, LINK)
+                    phase_id = self.team_phase(t, phase_id, k, LINK)
                     if t == 0:
                         self.nl.built()
                     passed = self.team.barrier(passed)
-                base = self.team_phase(t, base, k, DRIFT)
+                phase_id = self.team_phase(t, phase_id, k, DRIFT)
                 passed = self.team.barrier(passed)
                 if t == 0:
                     for r, b in ti.ndrange(self.n_rep, self.n_body):
                         self.mo.pose(r, b, k * self.p.dt[None])
-                base = self.team_phase(t, base, k, PAIRS)
+                phase_id = self.team_phase(t, phase_id, k, PAIRS)
                 passed = self.team.barrier(passed)
-                base = self.team_phase(t, base, k, FINISH)
+                phase_id = self.team_phase(t, phase_id, k, FINISH)
                 passed = self.team.barrier(passed)
 
     # ---------------------------------------------------------------- driving

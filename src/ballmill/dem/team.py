@@ -2,10 +2,15 @@
 
 On a CPU each parallel loop costs a thread-pool dispatch (tens of microseconds on a virtual
 machine: ~70 us measured here, against ~3 ms for a whole step of 8,640 balls), and a step has
-three of them.  A team launches once for many steps: one loop iteration per thread, the
-particles handed out in chunks as threads free up (the cursor), and a spin barrier between
-the phases of a step.  Every particle is still processed by exactly one thread with the same
-functions in the same order, so results do not depend on the team or its size.
+three of them.  A team launches once for many steps: one loop iteration per thread and a spin
+barrier between the phases of a step.  The particles are cut into chunks and each member owns a
+run of consecutive chunks; in every phase it does its own chunks first, in order, and then
+takes chunks from the far end of the runs of members still busy (a claim per chunk, so each is
+done once).  Owning keeps a particle's data in one core's cache from phase to phase; handing
+out chunks first-come (a shared ticket) let a particle move between cores at every phase, and
+that swung a run between 1.0x and 1.85x of one thread (8,640-ball drum, 2 threads).  Every
+particle is still processed by exactly one thread with the same functions in the same order,
+so results do not depend on the team or its size.
 
 Every member must run at once (a barrier waits for all), so a team is only as large as the
 thread pool: `size` = Taichi's CPU threads.  Taichi's CPU runtime hands a range-for's
@@ -19,9 +24,10 @@ import math
 import taichi as ti
 
 SPACING = 1024  # iterations per member: a multiple of the runtime's block of 512
-# chunk sizes: on the 8,640-ball drum, 2 threads, chunks of 256-4,320 particles ran ~1.4x
-# faster than chunks of 16-64 (one process, 12 interleaved repeats)
-MIN_CHUNK, MAX_CHUNK = 64, 4096
+# chunks: about 32 per member, so that the chunks taken from a busy member even out the load
+# (on the 8,640-ball drum, 2 threads, the barrier waits fell ~3x against 8 per member), and
+# no fewer than 64 particles, so that a chunk's neighbours are mostly in the chunk
+PER_MEMBER, MIN_CHUNK, MAX_CHUNK = 32, 64, 4096
 
 
 @ti.data_oriented
@@ -29,17 +35,14 @@ class Team:
     """`size` threads sharing `n` particles in chunks, with a barrier."""
 
     def __init__(self, size: int, n: int):
-        # chunks of consecutive particles (neighbours in space, from the lattice the bed starts
-        # on): large enough that a member mostly meets its own chunks' data, small enough that
-        # each member gets about 8 and the last ones even out the load
         self.size = size
-        chunk = min(MAX_CHUNK, max(MIN_CHUNK, n // (8 * size)))
+        chunk = min(MAX_CHUNK, max(MIN_CHUNK, n // (PER_MEMBER * size)))
         self.n_chunks = math.ceil(n / chunk)
         # read at run time, so that systems of other sizes share the compiled kernels
         self.chunk = ti.field(ti.i32, ())  # particles per chunk
         self.chunks = ti.field(ti.i32, ())  # = n_chunks
         self.chunk[None], self.chunks[None] = chunk, self.n_chunks
-        self.cursor = ti.field(ti.i32, ())  # tickets handed out this launch
+        self.claim = ti.field(ti.i32, self.n_chunks)  # the last phase (of this launch) that took each chunk
         self.arrived = ti.field(ti.i32, ())  # arrivals at barriers this launch
 
     @ti.func
@@ -53,13 +56,15 @@ class Team:
 
     @property
     def max_steps_per_launch(self) -> int:
-        """Steps whose tickets and barrier arrivals fit an i32: at most 5 phases a step."""
-        return max(1, (2**31 - 1) // (5 * (self.n_chunks + self.size)))
+        """Steps whose phase numbers and barrier arrivals fit an i32: at most 5 phases a step."""
+        return max(1, (2**31 - 1) // (5 * self.size))
 
     @ti.kernel
     def reset(self):
-        """Before each launch: no tickets handed out, no barrier passed."""
-        self.cursor[None] = 0
+        """Before each launch: no chunk taken, no barrier passed."""
+        ti.loop_config(serialize=True)
+        for c in self.claim:
+            self.claim[c] = -1
         self.arrived[None] = 0
 
     @ti.func
@@ -72,11 +77,12 @@ class Team:
         return passed + 1
 
     @ti.func
-    def ticket(self, base):
-        """The next chunk of the phase whose first ticket was `base` (>= n_chunks: none left)."""
-        return ti.atomic_add(self.cursor[None], 1) - base
+    def own(self, u):
+        """Member u's own chunks: [first, last)."""
+        nc = self.chunks[None]
+        return u * nc // self.size, (u + 1) * nc // self.size
 
     @ti.func
-    def next_base(self, base):
-        """First ticket of the next phase: each member took one ticket past the last chunk."""
-        return base + self.chunks[None] + self.size
+    def take(self, c, phase):
+        """Whether this member takes chunk c in `phase` (no other member took it yet)."""
+        return ti.atomic_max(self.claim[c], phase) < phase
