@@ -23,6 +23,8 @@ import math
 
 import taichi as ti
 
+from .particles import capacity
+
 SPACING = 1024  # iterations per member: a multiple of the runtime's block of 512
 # chunks: about 32 per member, so that the chunks taken from a busy member even out the load
 # (on the 8,640-ball drum, 2 threads, the barrier waits fell ~3x against 8 per member), and
@@ -42,7 +44,10 @@ class Team:
         self.chunk = ti.field(ti.i32, ())  # particles per chunk
         self.chunks = ti.field(ti.i32, ())  # = n_chunks
         self.chunk[None], self.chunks[None] = chunk, self.n_chunks
-        self.claim = ti.field(ti.i32, self.n_chunks)  # the last phase (of this launch) that took each chunk
+        # the last phase (of this launch) that took each chunk; sized by the team, not by n, so
+        # that systems of one size class share the compiled kernels (n_chunks <= ~33 per member)
+        self.claim = ti.field(ti.i32, capacity(max(2 * PER_MEMBER * size, math.ceil(n / MAX_CHUNK) + 1)))
+        assert self.n_chunks <= self.claim.shape[0]
         self.arrived = ti.field(ti.i32, ())  # arrivals at barriers this launch
 
     @ti.func
@@ -63,7 +68,7 @@ class Team:
     def reset(self):
         """Before each launch: no chunk taken, no barrier passed."""
         ti.loop_config(serialize=True)
-        for c in self.claim:
+        for c in range(self.claim.shape[0]):
             self.claim[c] = -1
         self.arrived[None] = 0
 
