@@ -49,8 +49,9 @@ class EnergyBook:
         springs[i] = spring
         elastic[i] = hertz + spring
 
-    @ti.kernel
-    def _export(self, out: ti.types.ndarray()):
+    @ti.func
+    def export(self, out: ti.template()):
+        """Per replica r: the channels and the elastic energy now into out[r, :N_OUT] (J)."""
         for r in range(self.p.n_rep):
             acc = ti.Vector([0.0] * N_OUT)
             for i in range(self.p.rep_start[r], self.p.rep_end[r]):
@@ -59,8 +60,17 @@ class EnergyBook:
             for k in ti.static(range(N_OUT)):
                 out[r, k] = acc[k]
 
+    @ti.kernel
+    def _export(self, out: ti.types.ndarray()):
+        self.export(out)
+
     def totals(self) -> dict[str, np.ndarray]:
         """Per replica: the cumulative channels and the elastic energy stored now (J)."""
         out = np.zeros((self.p.n_rep, N_OUT))
         self._export(out)
-        return {**{name: out[:, k] for k, name in enumerate(CHANNELS)}, "elastic_j": out[:, -1]}
+        return named_totals(out)
+
+
+def named_totals(out: np.ndarray) -> dict[str, np.ndarray]:
+    """What `EnergyBook.export` wrote, by name (J per replica)."""
+    return {**{name: out[:, k] for k, name in enumerate(CHANNELS)}, "elastic_j": out[:, -1]}

@@ -29,8 +29,8 @@ from tqdm import tqdm
 
 from .checkpoint import Checkpoint, SettledBed
 from .contact import PairTables
-from .energy import EnergyBook
-from .monitor import CELL, NEIGHBOURS, WALL_CONTACTS, Monitor
+from .energy import N_OUT, EnergyBook, named_totals
+from .monitor import CELL, FLAGS, NEIGHBOURS, WALL_CONTACTS, Monitor
 from .motion import Motions
 from .neighbours import NeighbourList
 from .pairs import PairContacts
@@ -38,7 +38,7 @@ from .particles import Particles, capacity
 from .results import Recorder, Results
 from .system import SystemSpec
 from .team import SPACING, Team
-from .walls import Walls
+from .walls import LOAD_COLUMNS, Walls, mean_loads
 
 log = logging.getLogger(__name__)
 
@@ -64,6 +64,20 @@ STEP = DRIFT | POSE | PAIRS | FINISH
 
 class SimulationError(RuntimeError):
     """The run went unphysical; the message says what happened and what to change."""
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What a sample reads of the engine, in one launch: positions (m), velocities (m/s) and
+    spins (rad/s), (n, 3) each; the mean wall loads since the last sample (walls.mean_loads);
+    the energy book's totals per replica (J, energy.named_totals); the monitor's flags by name."""
+
+    x: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    loads: dict[str, np.ndarray]
+    book: dict[str, np.ndarray]
+    flags: dict[str, float]
 
 
 def memory_estimate_bytes(n_particles: int, max_contacts: int, event_capacity: int, wall_slots: int) -> float:
@@ -130,7 +144,7 @@ class Engine:
         self.book.cumulative.fill(0.0)  # the first forces set the stored energies; no time has passed
         self._due = bool(self.nl.any_due[None])
         self._accumulated_steps = 1
-        self.initial_energy_j = _stored(self._energy_now())
+        self.initial_energy_j = _stored(self._energy_now(*self.kinematics(), self.book.totals()))
 
     def _choose_launch(self) -> str:
         cfg = ti.lang.impl.current_cfg()
@@ -249,6 +263,18 @@ class Engine:
                 phase_id = self.team_phase(t, phase_id, k, FINISH)
                 passed = self.team.barrier(passed)
 
+    @ti.kernel
+    def _observe(self, kin: ti.types.ndarray(), loads: ti.types.ndarray(), book: ti.types.ndarray(),
+                 flags: ti.types.ndarray()):
+        self.p.export_kinematics(kin)
+        self.walls.export_loads(loads)
+        self.book.export(book)
+        self.monitor.export_flags(flags)
+
+    @ti.kernel
+    def _kinematics(self, kin: ti.types.ndarray()):
+        self.p.export_kinematics(kin)
+
     # ---------------------------------------------------------------- driving
     def advance(self, nsteps: int) -> None:
         """Advance nsteps time steps."""
@@ -329,8 +355,9 @@ class Engine:
                 self.advance(bed.step - self.step_index)
                 bed.save(self, recorder)
             self.advance(target - self.step_index)
-            self.check()
-            recorder.sample(self)
+            seen = self.observe()
+            self.check(seen)
+            recorder.sample(self, seen)
             now = time.perf_counter()
             if checkpoint and s < n_samples - 1 and now - saved_at >= checkpoint.every_wall_s:
                 checkpoint.save(self, recorder, s + 1, label)
@@ -391,57 +418,65 @@ class Engine:
         """Neighbour-list builds so far (all replicas)."""
         return int(self.nl.builds[None])
 
-    def check(self) -> None:
-        """Stop with a clear message when the run went unphysical."""
-        m, t = self.monitor, f"t={self.time_s:.6g} s"
-        x = self.x.to_numpy()[:self.n]
+    def observe(self) -> Observation:
+        """Read what a sample records, in one launch; drains the wall loads."""
+        kin, book = np.zeros((3, self.n, 3)), np.zeros((self.n_rep, N_OUT))
+        loads, flags = np.zeros((self.n_rep, max(self.n_body, 1), LOAD_COLUMNS)), np.zeros(len(FLAGS))
+        self._observe(kin, loads, book, flags)
+        steps, self._accumulated_steps = self._accumulated_steps, 0
+        return Observation(*kin, mean_loads(loads, steps), named_totals(book),
+                           dict(zip(FLAGS, flags.tolist())))
+
+    def check(self, seen: Observation) -> None:
+        """Stop with a clear message when the run went unphysical (seen: this step's observation)."""
+        m, t, x, flag = self.monitor, f"t={self.time_s:.6g} s", seen.x, {k: int(v) for k, v in seen.flags.items()}
         if not np.isfinite(x).all():
             raise SimulationError(
                 f"non-finite particle position at {t}: reduce sim.dt_fraction "
                 "(time step as a fraction of Rayleigh) or check material stiffness"
             )
-        if m.escaped[None]:
-            i = m.escaped[None] - 1
+        if flag["escaped"]:
+            i = flag["escaped"] - 1
             raise SimulationError(
                 f"particle {i} left the vessel's domain at {t} (position "
                 f"{x[i].round(5).tolist()} m): the time step is too large for the wall speed "
                 "or stiffness, or the particles were placed outside the walls"
             )
-        if m.fast[None]:
+        if flag["fast"]:
             raise SimulationError(
-                f"particle {m.fast[None] - 1} moved more than half the neighbour skin "
+                f"particle {flag['fast'] - 1} moved more than half the neighbour skin "
                 f"({self.nl.skin / 2:.3g} m) in one step at {t}: reduce sim.dt_fraction or raise sim.neighbour_skin"
             )
-        if m.overflow[None]:
+        if flag["overflow"]:
             k = self.opt.max_contacts_per_particle
             what = {NEIGHBOURS: f"more neighbours within the skin than sim.max_contacts_per_particle={k}; "
                                 "raise it, or lower sim.neighbour_skin",
                     WALL_CONTACTS: f"more wall contacts than sim.max_contacts_per_particle={k}; raise it",
-                    CELL: "more particles in a grid cell than its capacity (heavy overlap)"}[m.overflow[None]]
+                    CELL: "more particles in a grid cell than its capacity (heavy overlap)"}[flag["overflow"]]
             raise SimulationError(f"a particle had {what} (at {t})")
-        if m.max_overlap[None] > self.opt.max_overlap_fraction:
+        if seen.flags["max_overlap"] > self.opt.max_overlap_fraction:
             raise SimulationError(
-                f"overlap reached {100 * m.max_overlap[None]:.2f} % of a radius at {t} "
+                f"overlap reached {100 * seen.flags['max_overlap']:.2f} % of a radius at {t} "
                 f"(limit {100 * self.opt.max_overlap_fraction:.1f} %): reduce sim.dt_fraction, or "
                 "raise the shear modulus if it was reduced for speed"
             )
-        if m.ev_count[None] > m.capacity:
+        if flag["ev_count"] > m.capacity:
             raise SimulationError(
-                f"{m.ev_count[None]} collisions ended within one sample, more than "
+                f"{flag['ev_count']} collisions ended within one sample, more than "
                 f"sim.event_capacity={m.capacity}: raise it or sample more often"
             )
 
-    def energies(self) -> dict[str, np.ndarray]:
-        """Per replica (J): kinetic, rotational, potential (zero at the origin) and elastic energy
-        now; the cumulative wall work and dissipation (energy.CHANNELS); and the residual of the
-        balance since the engine was built, work - change of stored energy - dissipation."""
-        out = self._energy_now()
+    def energies(self, seen: Observation) -> dict[str, np.ndarray]:
+        """Per replica (J), at the step `seen` was observed: kinetic, rotational, potential (zero at
+        the origin) and elastic energy; the cumulative wall work and dissipation (energy.CHANNELS);
+        and the residual of the balance since the engine was built, work - change of stored
+        energy - dissipation."""
+        out = self._energy_now(seen.x, seen.v, seen.w, seen.book)
         lost = out["dissipated_normal_j"] + out["dissipated_tangential_j"] + out["dissipated_rolling_j"]
         out["residual_j"] = out["wall_work_j"] - (_stored(out) - self.initial_energy_j) - lost
         return out
 
-    def _energy_now(self) -> dict[str, np.ndarray]:
-        x, v, w = self.kinematics()
+    def _energy_now(self, x, v, w, book: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         m, reps = self.p.mass_np, self.spec.replica
 
         def per_replica(q):
@@ -450,25 +485,21 @@ class Engine:
         return {"kinetic_j": per_replica(0.5 * m * (v**2).sum(1)),
                 "rotational_j": per_replica(0.2 * m * self.spec.radius_m**2 * (w**2).sum(1)),
                 "potential_j": per_replica(-m * (x @ np.asarray(self.spec.gravity_m_per_s2))),
-                **self.book.totals()}
+                **book}
 
     def kinematics(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions (m), velocities (m/s) and spins (rad/s) of the particles now, (n, 3) each."""
-        return self.x.to_numpy()[:self.n], self.v.to_numpy()[:self.n], self.w.to_numpy()[:self.n]
+        kin = np.zeros((3, self.n, 3))
+        self._kinematics(kin)
+        return kin[0], kin[1], kin[2]
 
     def drain_events(self) -> tuple[np.ndarray, np.ndarray]:
         """Collisions ended since the last call: ints (i, partner, start, end step), values."""
         return self.monitor.drain()
 
-    def drain_loads(self) -> dict[str, np.ndarray]:
-        """Mean wall loads per (replica, body) since the last call (N, N m, W)."""
-        loads = self.walls.drain_loads(self._accumulated_steps)
-        self._accumulated_steps = 0
-        return loads
-
     def wall_axis(self) -> np.ndarray:
         """(replicas, bodies, 3) motion axes (world)."""
-        return self.mo.axis.to_numpy()
+        return self.mo.axis_np
 
 
 def _stored(energy: dict[str, np.ndarray]) -> np.ndarray:

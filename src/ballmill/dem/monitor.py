@@ -5,6 +5,8 @@ import taichi as ti
 
 # overflow codes
 NEIGHBOURS, WALL_CONTACTS, CELL = 1, 2, 3
+# what `export_flags` writes, in this order
+FLAGS = ("ev_count", "escaped", "overflow", "fast", "max_overlap")
 
 
 @ti.data_oriented
@@ -34,6 +36,12 @@ class Monitor:
     def overlap(self, fraction):
         if fraction > self.max_overlap[None]:  # a read first: the shared value is rarely raised
             ti.atomic_max(self.max_overlap[None], fraction)
+
+    @ti.func
+    def export_flags(self, out: ti.template()):
+        """The flags into out[k] in the order of FLAGS (inside a sample's kernel)."""
+        out[0], out[1], out[2] = self.ev_count[None], self.escaped[None], self.overflow[None]
+        out[3], out[4] = self.fast[None], self.max_overlap[None]
 
     @ti.kernel
     def _export(self, m: ti.i32, ints: ti.types.ndarray(), vals: ti.types.ndarray()):

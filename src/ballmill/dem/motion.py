@@ -45,6 +45,7 @@ class Motions:
                 rows["start"][rep, k] = m.start_time_s
         for name, values in rows.items():
             getattr(self, name).from_numpy(values)
+        self.axis_np = self.axis.to_numpy()  # (replicas, bodies, 3) world motion axes (constant)
 
     @ti.func
     def pose(self, r, b, t_abs):

@@ -70,6 +70,13 @@ class Particles:
         self.domain_lo[None], self.domain_hi[None] = spec.domain_lo_m, spec.domain_hi_m
 
     @ti.func
+    def export_kinematics(self, out: ti.template()):
+        """Positions, velocities and spins into out[0], out[1], out[2] ((3, n, 3); inside a kernel)."""
+        for i in range(self.live[None]):
+            for c in ti.static(range(3)):
+                out[0, i, c], out[1, i, c], out[2, i, c] = self.x[i][c], self.v[i][c], self.w[i][c]
+
+    @ti.func
     def kick(self, i):
         """Half a velocity step with the current force and torque."""
         dt = self.dt[None]

@@ -89,10 +89,11 @@ class Recorder:
         for k, v in cols.items():
             self.columns[table][k].append(np.broadcast_to(v, (n,)) if np.ndim(v) == 0 else np.asarray(v))
 
-    def sample(self, engine) -> None:
+    def sample(self, engine, seen) -> None:
+        """Record the engine's step, whose `Engine.observe()` is `seen`."""
         t = engine.time_s
         reps = engine.spec.replica
-        loads = engine.drain_loads()
+        loads = seen.loads
         axis = engine.wall_axis()
         for b, name in enumerate(self.body_names):
             ax = axis[:, b]
@@ -104,13 +105,13 @@ class Recorder:
                 force_x_n=loads["force"][:, b, 0], force_y_n=loads["force"][:, b, 1],
                 force_z_n=loads["force"][:, b, 2],
             )
-        self._add("energy", t_s=t, replica=np.arange(engine.n_rep), **engine.energies())
+        self._add("energy", t_s=t, replica=np.arange(engine.n_rep), **engine.energies(seen))
         self._collisions(engine)
         snapshot = bool(self.snapshots) and t >= self.snapshots[0] - 0.5 * engine.dt
         if snapshot:
             self.snapshots.pop(0)
         if snapshot or (self.every and self.n_samples % self.every == 0):
-            x, v, w = engine.kinematics()
+            x, v, w = seen.x, seen.v, seen.w
             self._add(
                 "trajectories", t_s=t, replica=reps, particle=np.arange(engine.n),
                 x_m=x[:, 0], y_m=x[:, 1], z_m=x[:, 2],

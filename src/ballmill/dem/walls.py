@@ -24,6 +24,7 @@ from .motion import unit
 MESH_CELLS_PER_SIDE = 64  # a mesh's bounding box is binned into at most this many cells per side
 EDGE_SLOTS = 4  # edge/vertex contacts of one ball with one mesh, in distinct directions
 EDGE_SAME = math.cos(math.radians(20.0))  # normals closer than 20 deg: the same contact direction
+LOAD_COLUMNS = 11  # force (3), torque (3), rolling torque (3), power, rolling power
 
 
 def wall_slots(analytic_walls: int, meshes: bool, capacity: int) -> int:
@@ -335,11 +336,12 @@ class Walls:
                 self.monitor.collision(i, cls, start, k, self.c_vn[old, i, s], self.c_ed[old, i, s])
 
     # ---------------------------------------------------------------- loads
-    @ti.kernel
-    def _export_loads(self, out: ti.types.ndarray()):
-        """Sum the per-particle wall-load accumulators per (replica, body), in particle order."""
+    @ti.func
+    def export_loads(self, out: ti.template()):
+        """Sum the per-particle wall-load accumulators per (replica, body), in particle order,
+        into out[r, b, :LOAD_COLUMNS], and zero them (inside a sample's kernel)."""
         for r, b in ti.ndrange(self.p.n_rep, self.n_body):
-            acc = ti.Vector([0.0] * 11)
+            acc = ti.Vector([0.0] * LOAD_COLUMNS)
             for i in range(self.p.rep_start[r], self.p.rep_end[r]):
                 f, tq, tr = self.acc_f[i, b], self.acc_tq[i, b], self.acc_tq_roll[i, b]
                 acc += ti.Vector([f[0], f[1], f[2], tq[0], tq[1], tq[2], tr[0], tr[1], tr[2],
@@ -349,13 +351,13 @@ class Walls:
                 self.acc_tq_roll[i, b] = ti.Vector([0.0, 0.0, 0.0])
                 self.acc_pw[i, b] = 0.0
                 self.acc_pw_roll[i, b] = 0.0
-            for c in ti.static(range(11)):
+            for c in ti.static(range(LOAD_COLUMNS)):
                 out[r, b, c] = acc[c]
 
-    def drain_loads(self, steps: int) -> dict[str, np.ndarray]:
-        """Mean wall loads per (replica, body) over the last `steps` steps (N, N m, W)."""
-        out = np.zeros((self.p.n_rep, max(self.n_body, 1), 11))
-        self._export_loads(out)
-        out /= max(steps, 1)
-        return {"force": out[..., 0:3], "torque": out[..., 3:6], "torque_rolling": out[..., 6:9],
-                "power": out[..., 9], "power_rolling": out[..., 10]}
+
+def mean_loads(out: np.ndarray, steps: int) -> dict[str, np.ndarray]:
+    """Mean wall loads per (replica, body) over `steps` steps (N, N m, W) from what
+    `Walls.export_loads` summed."""
+    out = out / max(steps, 1)
+    return {"force": out[..., 0:3], "torque": out[..., 3:6], "torque_rolling": out[..., 6:9],
+            "power": out[..., 9], "power_rolling": out[..., 10]}
