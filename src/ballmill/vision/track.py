@@ -7,8 +7,8 @@ difference (black-hat or top-hat) holds the balls and, as thin lines, the jar's 
 `polarity="auto"` tells the side from the grey levels of frames sampled through the video.
 The closing runs on a 4x downsampled frame: the background is smooth, and that is 16x cheaper.
 
-Per frame: a mask of the difference closed over specular highlights and opened to drop the
-jar's outline, distance-transform peaks as ball candidates (touching balls give two peaks),
+Per frame: a mask of the difference (halved in size) closed over specular highlights and opened
+to drop the jar's outline, distance-transform peaks as ball candidates (touching balls give two peaks),
 then a sub-pixel circle fit to the half-contrast crossings along rays from each candidate
 (rays heading into the other ball are left out; edge points off the fit by over a pixel,
 e.g. where a ball touches the jar's outline, are dropped and the circle refitted).
@@ -33,6 +33,7 @@ from .frames import read_frames, read_meta, spread_frames
 
 # Thresholds, each relative to the expected ball radius r (px) or to grey levels of the difference image:
 DOWNSAMPLE = 4  # the background closing runs on a frame this many times smaller (the background is smooth)
+CANDIDATE_SCALE = 2  # ball candidates are sought on a frame this many times smaller (the fit refines them)
 BACKGROUND_DISC = 1.4  # closing disc diameter / ball diameter: wider than a ball, so the ball is removed
 MASK_LEVEL = 0.5  # foreground mask: above this share of the frame's strongest difference ...
 MASK_MIN_GREY = 10.0  # ... and above this many grey levels (noise is ~2)
@@ -80,8 +81,12 @@ def detect_polarity(sample: list[np.ndarray]) -> str:
 
 
 def candidates(diff: np.ndarray, r_px: float, n: int) -> list[np.ndarray]:
-    """Up to n ball centres (x, y px) from distance-transform peaks of the foreground mask."""
-    blur = cv2.GaussianBlur(diff, (0, 0), 1.5)
+    """Up to n ball centres (x, y px) from distance-transform peaks of the foreground mask, found
+    on a frame CANDIDATE_SCALE times smaller (a peak only seeds `fit_circle`)."""
+    s = CANDIDATE_SCALE
+    small = cv2.resize(diff, (max(1, diff.shape[1] // s), max(1, diff.shape[0] // s)), interpolation=cv2.INTER_AREA)
+    r_px = r_px / s
+    blur = cv2.GaussianBlur(small, (0, 0), 1.5 / s)
     mask = (blur > max(float(blur.max()) * MASK_LEVEL, MASK_MIN_GREY)).astype(np.uint8)
     k = max(3, int(r_px / 2) | 1)
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
@@ -94,7 +99,7 @@ def candidates(diff: np.ndarray, r_px: float, n: int) -> list[np.ndarray]:
         _, peak, _, (x, y) = cv2.minMaxLoc(dist)
         if peak < PEAK_MIN * r_px:
             break
-        found.append(np.array([x, y], float))
+        found.append(s * np.array([x, y], float) + (s - 1) / 2)  # the small pixel's centre, in frame px
         cv2.circle(dist, (x, y), int(PEAK_EXCLUSION * r_px), 0, -1)
     return found
 
