@@ -132,11 +132,9 @@ class Recorder:
         is_pair = key < cap
         body = np.full(len(key), -1)
         wall = (key >= cap) & (key < cap + nw)
-        if nw:
-            body[wall] = walls.w_body.to_numpy()[key[wall] - cap]
+        body[wall] = walls.wall_body[key[wall] - cap]
         mesh = key >= cap + nw + nt
-        if walls.n_mesh:
-            body[mesh] = walls.m_body.to_numpy()[key[mesh] - cap - nw - nt]
+        body[mesh] = walls.mesh_body[key[mesh] - cap - nw - nt]
         m = engine.p.mass_np
         m_j = m[np.where(is_pair, key, i)]
         m_eff = np.where(is_pair, m[i] * m_j / (m[i] + m_j), m[i])

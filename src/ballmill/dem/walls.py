@@ -74,6 +74,9 @@ class Walls:
                                  wall.half_length_m))
         rows.sort(key=lambda row: row[1])  # grouped by body: one frame change per body
         self.n_wall, self.n_tri, self.n_mesh = len(rows), len(tris), len(meshes)
+        # the body of each analytic wall and of each mesh (what the collision log names)
+        self.wall_body = np.array([row[1] for row in rows], int)
+        self.mesh_body = np.array([b for b, _, _ in meshes], int)
         nw = max(self.n_wall, 1)
         self.w_kind = ti.field(ti.i32, nw)
         self.w_body = ti.field(ti.i32, nw)
