@@ -230,6 +230,7 @@ OTHERS = [
     (["bench", "cases=[0]"], r"cases: '0' is neither a ball count \(an integer >= 2\) nor bpr19"),
     (["bench", "cases=[big]"], r"cases: 'big' is neither a ball count"),
     (["bench", "peer=gromacs"], r"peer='gromacs' is not one of \[None, 'liggghts', 'lammps', 'both'\]"),
+    (["bench", "mm400=true", "mm400_duration_s=0"], r"mm400_duration_s=0.0 is outside the allowed range \(0.0, inf\]"),
     (["surrogate", "points=60"], r"points=60: a Sobol design needs a power of two"),
     (["surrogate", "bounds.fill_fraction=[0.5,0.3]"], r"bounds.fill_fraction=\[0.5, 0.3\]: give \[low, high\]"),
     (["surrogate", "bounds.restitution=[0.3,1.2]"], r"bounds.restitution\[1\]=1.2 is outside the allowed range"),

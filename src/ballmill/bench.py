@@ -12,7 +12,7 @@ share of each phase of a step (`Engine.profile`).
 Figures are printed as a table and written as JSON (`json=PATH`); `peer=liggghts`, `lammps` or
 `both` runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
 
-`lab=true`: the MM400 batch instead, a 10 x 10 grid of ball-wall restitution x friction, one
+`mm400=true`: the MM400 batch instead, a 10 x 10 grid of ball-wall restitution x friction, one
 17.6 mm ball per jar at 25 Hz, 2 s each, all replicas in one launch.
 """
 
@@ -119,7 +119,7 @@ def peer_names(peer: str | None) -> tuple[str, ...]:
     return () if peer is None else tuple(PEERS) if peer == "both" else (peer,)
 
 
-def bench_lab(threads: int, duration_s: float) -> dict:
+def bench_mm400(threads: int, duration_s: float) -> dict:
     """Wall time of the 10 x 10 MM400 grid (physical stiffness), one replica per pair."""
     from .lab import conditions, simulate_mm400
     from .scenario import compose, load
@@ -138,8 +138,8 @@ def main(opts: BenchConfig) -> None:
         if case != "bpr19" and not (case.isdigit() and int(case) >= 2):
             raise ConfigError(f"cases: {case!r} is neither a ball count (an integer >= 2) nor bpr19")
     require_peers(peer_names(opts.peer))  # before our own runs, not after
-    if opts.lab:
-        rows = [bench_lab(opts.threads, opts.lab_duration_s)]
+    if opts.mm400:
+        rows = [bench_mm400(opts.threads, opts.mm400_duration_s)]
     else:
         rows = []
         for c in opts.cases:

@@ -545,8 +545,8 @@ class BenchConfig:
     large_settle_s: float = rng(0.15, 0.0, None, doc="settling time of large cases (s)")
     large_rotate_s: float = rng(0.05, 0.0, None, lo_open=True, doc="timed rotation of large cases (s)")
     profile_steps: int = rng(50, 1, None)
-    lab: bool = field(default=False, metadata={"doc": "the MM400 10 x 10 grid instead of the drum"})
-    lab_duration_s: float = rng(2.0, 0.0, None, lo_open=True, doc="simulated time per MM400 replica (s)")
+    mm400: bool = field(default=False, metadata={"doc": "the MM400 10 x 10 grid instead of the drum"})
+    mm400_duration_s: float = rng(2.0, 0.0, None, lo_open=True, doc="simulated time per MM400 replica (s)")
     peer: str | None = field(default=None, metadata={"choices": (None, "liggghts", "lammps", "both"), "doc":
                                                      "run the same drums in LIGGGHTS, LAMMPS or both (1 and 2 ranks)"})
     rounds: int = rng(1, 1, None, doc="every run (ours, then the peers') repeated one after the other: medians "
