@@ -222,25 +222,37 @@ class Engine:
                 c = first + m if v == 0 else last - 1 - m
                 if self.team.take(c, phase_id):
                     for i in range(c * chunk, ti.min((c + 1) * chunk, n)):
-                        if ti.static(phase == DRIFT):
-                            self.p.kick_drift(i, self.monitor)
-                        if ti.static(phase == PAIRS):
-                            self.pairs.forces(i, k)
-                        if ti.static(phase == FINISH):
-                            self.finish(i, k, True)
-                        if ti.static(phase == BUILD):
-                            self.nl.build_particle(i)
-                        if ti.static(phase == LINK):
-                            self.nl.link_reverse(i)
+                        self.particle_phase(i, k, phase)
         return phase_id + 1
+
+    @ti.func
+    def particle_phase(self, i, k, phase: ti.template()):
+        """Particle i's part of the phases in `phase` (bits), in step order: the step's end
+        (FINISH) before the next step's half kick and drift (DRIFT)."""
+        if ti.static(phase & FINISH):
+            self.finish(i, k, True)
+        if ti.static(phase & DRIFT):
+            self.p.kick_drift(i, self.monitor)
+        if ti.static(phase & PAIRS):
+            self.pairs.forces(i, k)
+        if ti.static(phase & BUILD):
+            self.nl.build_particle(i)
+        if ti.static(phase & LINK):
+            self.nl.link_reverse(i)
 
     @ti.kernel
     def _team_steps(self, k0: ti.i32, nsteps: ti.i32):
-        """nsteps whole steps by the team: a rebuild when due, drift, wall poses (member 0),
-        pair contacts, then wall contacts and the second half kick, with a barrier after each."""
+        """nsteps whole steps by the team, two barriers a step: wall poses (member 0) and pair
+        contacts; then, in one pass per particle, wall contacts, the second half kick and the
+        next step's half kick and drift (a particle's end of step reads no other particle, so
+        the pass gives the same bits as two).  A rebuild, when due, comes after that drift:
+        when the list is rebuilt does not change the results (it holds every contact then)."""
         ti.loop_config(block_dim=SPACING)
         for q in range(self.team.members):
             t, phase_id, passed = self.team.member(q), 0, 0
+            if t >= 0:
+                phase_id = self.team_phase(t, phase_id, k0 + 1, DRIFT)
+                passed = self.team.barrier(passed)
             for s in range(nsteps if t >= 0 else 0):
                 k = k0 + s + 1
                 if ti.atomic_or(self.nl.any_due[None], 0):
@@ -253,14 +265,15 @@ class Engine:
                     if t == 0:
                         self.nl.built()
                     passed = self.team.barrier(passed)
-                phase_id = self.team_phase(t, phase_id, k, DRIFT)
-                passed = self.team.barrier(passed)
                 if t == 0:
                     for r, b in ti.ndrange(self.n_rep, self.n_body):
                         self.mo.pose(r, b, k * self.p.dt[None])
                 phase_id = self.team_phase(t, phase_id, k, PAIRS)
                 passed = self.team.barrier(passed)
-                phase_id = self.team_phase(t, phase_id, k, FINISH)
+                if s < nsteps - 1:
+                    phase_id = self.team_phase(t, phase_id, k, FINISH | DRIFT)
+                else:  # the launch ends with its last step's end
+                    phase_id = self.team_phase(t, phase_id, k, FINISH)
                 passed = self.team.barrier(passed)
 
     @ti.kernel
