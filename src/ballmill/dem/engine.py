@@ -195,21 +195,26 @@ class Engine:
 
     @ti.kernel
     def _serial_steps(self, k0: ti.i32, nsteps: ti.i32):
-        """nsteps whole steps of every replica: parallel over replicas, serial inside each."""
+        """nsteps whole steps of every replica: parallel over replicas, serial inside each, one
+        pass over the particles a step (`particle_phase`: i's pair contacts only read partners
+        j > i, which have not yet ended the step; i ends its step once every lower partner has
+        written i's slots, then starts the next); a due rebuild comes after that drift."""
         for r in range(self.n_rep):
             i0, i1 = self.p.rep_start[r], self.p.rep_end[r]
+            for i in range(i0, i1 if nsteps > 0 else i0):  # the first step's half kick and drift
+                self.p.kick_drift(i, self.monitor)
             for s in range(nsteps):
                 k = k0 + s + 1
                 if self.nl.due[r]:
                     self.nl.build_replica(r)
-                for i in range(i0, i1):
-                    self.p.kick_drift(i, self.monitor)
                 for b in range(self.n_body):
                     self.mo.pose(r, b, k * self.p.dt[None])
-                for i in range(i0, i1):
-                    self.pairs.forces(i, k)
-                for i in range(i0, i1):
-                    self.finish(i, k, True)
+                if s < nsteps - 1:
+                    for i in range(i0, i1):
+                        self.particle_phase(i, k, PAIRS | FINISH | DRIFT)
+                else:  # the launch ends with its last step's end
+                    for i in range(i0, i1):
+                        self.particle_phase(i, k, PAIRS | FINISH)
 
     @ti.func
     def team_phase(self, t, phase_id, k, phase: ti.template()):
@@ -227,14 +232,14 @@ class Engine:
 
     @ti.func
     def particle_phase(self, i, k, phase: ti.template()):
-        """Particle i's part of the phases in `phase` (bits), in step order: the step's end
-        (FINISH) before the next step's half kick and drift (DRIFT)."""
+        """Particle i's part of the phases in `phase` (bits), in step order: its pair contacts,
+        the step's end (FINISH), then the next step's half kick and drift (DRIFT)."""
+        if ti.static(phase & PAIRS):
+            self.pairs.forces(i, k)
         if ti.static(phase & FINISH):
             self.finish(i, k, True)
         if ti.static(phase & DRIFT):
             self.p.kick_drift(i, self.monitor)
-        if ti.static(phase & PAIRS):
-            self.pairs.forces(i, k)
         if ti.static(phase & BUILD):
             self.nl.build_particle(i)
         if ti.static(phase & LINK):
@@ -250,7 +255,7 @@ class Engine:
         ti.loop_config(block_dim=SPACING)
         for q in range(self.team.members):
             t, phase_id, passed = self.team.member(q), 0, 0
-            if t >= 0:
+            if t >= 0 and nsteps > 0:  # the first step's half kick and drift
                 phase_id = self.team_phase(t, phase_id, k0 + 1, DRIFT)
                 passed = self.team.barrier(passed)
             for s in range(nsteps if t >= 0 else 0):
@@ -290,7 +295,9 @@ class Engine:
 
     # ---------------------------------------------------------------- driving
     def advance(self, nsteps: int) -> None:
-        """Advance nsteps time steps."""
+        """Advance nsteps time steps (none: nothing happens)."""
+        if nsteps <= 0:
+            return
         if self.launch == "serial":
             self._serial_steps(self.step_index, nsteps)
             self.step_index += nsteps
