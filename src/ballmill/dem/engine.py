@@ -13,8 +13,10 @@ Three ways to run steps, chosen once per system (`Engine.launch`):
 - team: many whole steps per launch by a team of CPU threads sharing the particles, with a
   barrier between phases (large systems on a CPU with two or more threads; team.py);
 - parallel: one kernel launch per step, parallel over particles (a GPU).
-All call the same functions in the same order, so they give identical results, and
-none depends on the number of threads.
+All call the same functions per particle.  Serial and team runs end a particle's step and
+start its next (half kick, drift) in one pass and rebuild a due list after that drift; that
+changes no bits (when the list is rebuilt does not change the results), so every launch gives
+identical results, and none depends on the number of threads.
 """
 
 import logging
