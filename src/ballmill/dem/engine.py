@@ -138,7 +138,6 @@ class Engine:
         self.walls = Walls(spec, self.p, self.tables, self.mo, self.monitor, self.book, k, options.collision_log)
         self.team = Team(max(ti.lang.impl.current_cfg().cpu_max_num_threads, 1), self.n) if self.launch == "team" \
             else None
-        self.x, self.v, self.w = self.p.x, self.p.v, self.p.w
         self.max_overlap = self.monitor.max_overlap
         self.step_index = 0
         self.nl.build_all()
