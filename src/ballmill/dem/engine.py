@@ -140,8 +140,11 @@ class Engine:
             else None
         self.max_overlap = self.monitor.max_overlap
         self.step_index = 0
-        self.nl.build_all()
-        self._first_forces()
+        if self.launch == "serial":  # the list (due from the start), then the first forces
+            self._serial_steps(0, 0)
+        else:
+            self.nl.build_all()
+            self._first_forces()
         self.book.cumulative.fill(0.0)  # the first forces set the stored energies; no time has passed
         self._due = bool(self.nl.any_due[None])
         self._accumulated_steps = 1
@@ -156,13 +159,13 @@ class Engine:
 
     # ---------------------------------------------------------------- kernels
     @ti.func
-    def finish(self, i, k, kick: ti.template()):
-        """Step end for particle i: total force and torque, second half kick, skin check."""
+    def finish(self, i, k, kick):
+        """Step end for particle i: total force and torque, second half kick (if `kick`), skin check."""
         f_pairs, t_pairs = self.nl.gather(i)
         f_walls, t_walls = self.walls.forces(i, k)
         self.p.f[i] = self.p.mass[i] * self.p.gravity[None] + f_pairs + f_walls
         self.p.tq[i] = t_pairs + t_walls
-        if ti.static(kick):
+        if kick:
             self.p.kick(i)
         self.nl.watch(i)
 
@@ -197,15 +200,17 @@ class Engine:
     @ti.kernel
     def _serial_steps(self, k0: ti.i32, nsteps: ti.i32):
         """nsteps whole steps of every replica: parallel over replicas, serial inside each, one
-        pass over the particles a step (`particle_phase`: i's pair contacts only read partners
-        j > i, which have not yet ended the step; i ends its step once every lower partner has
-        written i's slots, then starts the next); a due rebuild comes after that drift."""
+        pass over the particles a step (i's pair contacts only read partners j > i, which have
+        not yet ended the step; i ends its step once every lower partner has written i's slots,
+        then, unless the launch ends there, starts the next); a due rebuild comes after that
+        drift.  nsteps = 0: the forces at step k0 with no kick (a new engine's first forces,
+        after its first list build), so no other kernel compiles the contact code."""
         for r in range(self.n_rep):
             i0, i1 = self.p.rep_start[r], self.p.rep_end[r]
             for i in range(i0, i1 if nsteps > 0 else i0):  # the first step's half kick and drift
                 self.p.kick_drift(i, self.monitor)
-            for s in range(nsteps):
-                k = k0 + s + 1
+            for s in range(ti.max(nsteps, 1)):
+                k = k0 + s + ti.min(nsteps, 1)
                 if self.nl.due[r]:
                     self.nl.build_replica(r)
                 for b in range(self.n_body):
@@ -215,7 +220,8 @@ class Engine:
                         self.particle_phase(i, k, PAIRS | FINISH | DRIFT)
                 else:  # the launch ends with its last step's end
                     for i in range(i0, i1):
-                        self.particle_phase(i, k, PAIRS | FINISH)
+                        self.pairs.forces(i, k)
+                        self.finish(i, k, nsteps > 0)
 
     @ti.func
     def team_phase(self, t, phase_id, k, phase: ti.template()):
