@@ -69,3 +69,14 @@ def test_a_sequential_sweep_gives_each_job_every_core_and_a_parallel_one_shares_
     assert os.environ[LOCAL_JOBS_ENV] == "1"
     check_jobs([*sweep, "hydra/launcher=processes"], multirun=True)  # two at a time
     assert os.environ[LOCAL_JOBS_ENV] == "2"
+
+
+def test_a_jobs_value_overrides_applied_to_the_composed_base_give_the_composed_job():
+    from ballmill.jobs import with_values
+
+    base = compose("config", ["+sweep=fig4", "sim=paper"])
+    job = ["scaleup.region=GA", "scaleup.bpr=22.9", "sim.power_se_target=null"]
+    assert with_values(base, job) == compose("config", ["+sweep=fig4", "sim=paper", *job])
+    # a group, an addition or a bad value: composed instead
+    for other in (["mill=bond"], ["+mill.extra=1"], ["scaleup.bpr=abc"], ["scaleup.no_such_key=1"]):
+        assert with_values(base, other) is None
