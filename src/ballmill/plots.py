@@ -142,9 +142,11 @@ def plot_bed(trajectories: pd.DataFrame, radii_m: np.ndarray, profile_m: np.ndar
              start_s: float, shape: dict | None = None):
     """Side view of the drum (along its axis) at four recorded instants, balls coloured by speed,
     so cascading and cataracting can be told apart at a glance; the shell's profile (lifters) as
-    turned at that instant, and the charge's toe and shoulder where `shape` gives them."""
-    from matplotlib.collections import PatchCollection
-    from matplotlib.patches import Circle, Polygon
+    turned at that instant, and the charge's toe and shoulder where `shape` gives them.  The
+    balls are one ellipse collection (radii in data units), rasterised inside an SVG: a
+    3,767-ball mill's figure took 1.8 s and 9.6 MB as separate circles."""
+    from matplotlib.collections import EllipseCollection
+    from matplotlib.patches import Polygon
 
     times = sorted(trajectories.t_s.unique())
     times = [times[k] for k in np.linspace(0, len(times) - 1, min(4, len(times))).round().astype(int)]
@@ -154,8 +156,9 @@ def plot_bed(trajectories: pd.DataFrame, radii_m: np.ndarray, profile_m: np.ndar
     big_r = float(np.hypot(*profile_m.T).max())
     for ax, t in zip(axes[0], times):
         g = trajectories[trajectories.t_s == t].sort_values("y_m")
-        balls = PatchCollection([Circle((x, z), radii_m[i]) for x, z, i in zip(g.x_m, g.z_m, g.particle)],
-                                cmap="viridis", edgecolor="none")
+        diameters = 2 * radii_m[g.particle.to_numpy()]
+        balls = EllipseCollection(diameters, diameters, 0.0, units="xy", offsets=np.c_[g.x_m, g.z_m],
+                                  offset_transform=ax.transData, cmap="viridis", edgecolor="none", rasterized=True)
         balls.set_array(np.sqrt(g.vx_m_per_s**2 + g.vy_m_per_s**2 + g.vz_m_per_s**2).to_numpy())
         balls.set_clim(0.0, vmax)
         ax.add_collection(balls)
