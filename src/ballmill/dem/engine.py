@@ -52,6 +52,9 @@ GRID_MIN_PARTICLES = 8
 # 1.4x at 1,000, 2.1x at 8,640).  A parallel loop costs ~70 us to dispatch on this machine.
 TEAM_MIN_PARTICLES = 500
 LAUNCHES = ("serial", "team", "parallel")
+# A serial launch's replicas are shared by the threads in this many runs per thread (a calibration
+# grid: 200 one-ball jars; Taichi's CPU runtime would run a loop over them on one thread).
+BATCHES_PER_THREAD = 4
 # Memory of the engine's fields (f64), measured on a 3,645-ball drum: 525 B per particle, plus the
 # 4 B that pad a partner's record to 96 B and the 8 B open-contact mask added since, and 32 B per
 # buffered collision; from the fields' sizes, 176 B per neighbour-list slot (partner, reverse slot,
@@ -136,8 +139,9 @@ class Engine:
         self.book = EnergyBook(self.p)
         self.pairs = PairContacts(self.p, self.tables, self.nl, self.monitor, self.book, options.collision_log)
         self.walls = Walls(spec, self.p, self.tables, self.mo, self.monitor, self.book, k, options.collision_log)
-        self.team = Team(max(ti.lang.impl.current_cfg().cpu_max_num_threads, 1), self.n) if self.launch == "team" \
-            else None
+        threads = max(ti.lang.impl.current_cfg().cpu_max_num_threads, 1)
+        self.team = Team(threads, self.n) if self.launch == "team" else None
+        self.batches = min(self.n_rep, BATCHES_PER_THREAD * threads)  # of replicas, in a serial launch
         self.max_overlap = self.monitor.max_overlap
         self.step_index = 0
         if self.launch == "serial":  # the list (due from the start), then the first forces
@@ -204,24 +208,29 @@ class Engine:
         not yet ended the step; i ends its step once every lower partner has written i's slots,
         then, unless the launch ends there, starts the next); a due rebuild comes after that
         drift.  nsteps = 0: the forces at step k0 with no kick (a new engine's first forces,
-        after its first list build), so no other kernel compiles the contact code."""
-        for r in range(self.n_rep):
-            i0, i1 = self.p.rep_start[r], self.p.rep_end[r]
-            for i in range(i0, i1 if nsteps > 0 else i0):  # the first step's half kick and drift
-                self.p.kick_drift(i, self.monitor)
-            for s in range(ti.max(nsteps, 1)):
-                k = k0 + s + ti.min(nsteps, 1)
-                if self.nl.due[r]:
-                    self.nl.build_replica(r)
-                for b in range(self.n_body):
-                    self.mo.pose(r, b, k * self.p.dt[None])
-                if s < nsteps - 1:
-                    for i in range(i0, i1):
-                        self.particle_phase(i, k, PAIRS | FINISH | DRIFT)
-                else:  # the launch ends with its last step's end
-                    for i in range(i0, i1):
-                        self.pairs.forces(i, k)
-                        self.finish(i, k, nsteps > 0)
+        after its first list build), so no other kernel compiles the contact code.  The replicas
+        are cut into `batches` runs of consecutive replicas, each the only work of its block of
+        the loop (as a team's members: team.py), so that the threads share them."""
+        for q in range(self.batches * SPACING):
+            g = q // SPACING
+            for r in range(g * self.n_rep // self.batches if q % SPACING == 0 else 0,
+                           (g + 1) * self.n_rep // self.batches if q % SPACING == 0 else 0):
+                i0, i1 = self.p.rep_start[r], self.p.rep_end[r]
+                for i in range(i0, i1 if nsteps > 0 else i0):  # the first step's half kick and drift
+                    self.p.kick_drift(i, self.monitor)
+                for s in range(ti.max(nsteps, 1)):
+                    k = k0 + s + ti.min(nsteps, 1)
+                    if self.nl.due[r]:
+                        self.nl.build_replica(r)
+                    for b in range(self.n_body):
+                        self.mo.pose(r, b, k * self.p.dt[None])
+                    if s < nsteps - 1:
+                        for i in range(i0, i1):
+                            self.particle_phase(i, k, PAIRS | FINISH | DRIFT)
+                    else:  # the launch ends with its last step's end
+                        for i in range(i0, i1):
+                            self.pairs.forces(i, k)
+                            self.finish(i, k, nsteps > 0)
 
     @ti.func
     def team_phase(self, t, phase_id, k, phase: ti.template()):
