@@ -75,7 +75,7 @@ class SimConfig:
         "wall-clock time between checkpoints of a drum run (s; a run shorter than this writes none); null: none"))
     neighbour_skin: float = rng(0.5, 0.0, None, lo_open=True,
                                 doc="Verlet skin / largest ball radius (larger: fewer list rebuilds, more candidates)")
-    event_capacity: int = rng(200_000, 1, None, doc="collisions held between two samples")
+    event_capacity: int = rng(200_000, 1, None, doc="finished collisions the engine holds (read at the first sample that finds it half full, and at the end)")
     max_overlap_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True, doc="largest overlap / radius before a run stops")
     neighbour_search: str = field(default="auto", metadata={
         "choices": ("auto", "grid", "all_pairs"), "doc": "auto: a cell grid when a replica has more than 8 balls"})

@@ -409,7 +409,7 @@ class Engine:
             if stop is not None and stop():
                 break
         bar.close()
-        return recorder.finish()
+        return recorder.finish(self)
 
     def _state_fields(self):
         for part in ("p", "nl", "walls", "book", "monitor"):
@@ -498,8 +498,8 @@ class Engine:
             )
         if flag["ev_count"] > m.capacity:
             raise SimulationError(
-                f"{flag['ev_count']} collisions ended within one sample, more than "
-                f"sim.event_capacity={m.capacity}: raise it or sample more often"
+                f"{flag['ev_count']} collisions ended since the log was last read, more than "
+                f"sim.event_capacity={m.capacity} (read once half full, at a sample): raise it or sample more often"
             )
 
     def energies(self, seen: Observation) -> dict[str, np.ndarray]:

@@ -106,7 +106,8 @@ class Recorder:
                 force_z_n=loads["force"][:, b, 2],
             )
         self._add("energy", t_s=t, replica=np.arange(engine.n_rep), **engine.energies(seen))
-        self._collisions(engine)
+        if 2 * seen.flags["ev_count"] > engine.monitor.capacity:  # else left for a later sample (or finish)
+            self._collisions(engine)
         snapshot = bool(self.snapshots) and t >= self.snapshots[0] - 0.5 * engine.dt
         if snapshot:
             self.snapshots.pop(0)
@@ -172,8 +173,9 @@ class Recorder:
         for sink, saved in zip(self.sinks, state["sinks"]):
             vars(sink).update(saved)
 
-    def finish(self) -> Results:
-        """The run's tables, handed to every sink."""
+    def finish(self, engine) -> Results:
+        """The run's tables (with the collisions the engine still holds), handed to every sink."""
+        self._collisions(engine)
         results = Results(**{
             name: pd.DataFrame({k: np.concatenate(v) for k, v in cols.items()}) for name, cols in self.columns.items()
         })
