@@ -86,8 +86,9 @@ def render(track: pd.DataFrame, radius_m: dict[int, float], jar: Capsule, motion
                           "u_px": u.mean(axis=2).T.ravel(), "v_px": v.mean(axis=2).T.ravel()})
 
     def frames():
-        rng = np.random.default_rng(cam.seed)
+        cv2.setRNGSeed(cam.seed)  # the sensor noise: OpenCV's generator (this thread's; 4x NumPy's speed)
         canvas = np.zeros((cam.height_px, cam.width_px), np.uint8)
+        noise = np.empty(canvas.shape, np.float32)
         for k, t in enumerate(times):
             acc = np.zeros(canvas.shape, np.float64)
             for b, tt in enumerate(t + offsets):
@@ -95,7 +96,8 @@ def render(track: pd.DataFrame, radius_m: dict[int, float], jar: Capsule, motion
                 balls = [(at["x_m"][q, k, b], at["z_m"][q, k, b], radius_m[ids[q]]) for q in far_first]
                 _draw(canvas, cam, balls, motion.place(tt, jar.center_m), jar)
                 acc += canvas
-            acc = acc / len(offsets) + rng.normal(0.0, cam.noise_grey, acc.shape)
+            cv2.randn(noise, 0.0, cam.noise_grey)
+            acc = acc / len(offsets) + noise
             yield np.clip(np.rint(acc), 0, 255).astype(np.uint8)
 
     return frames(), truth

@@ -62,15 +62,15 @@ class TrackerSettings:
 
 
 def foreground(frame: np.ndarray, r_px: float, polarity: str) -> np.ndarray:
-    """Black-hat (dark balls) or top-hat (bright balls) of a frame with a disc wider than a ball (float32)."""
-    f = frame.astype(np.float32)
-    small = cv2.resize(f, (max(1, f.shape[1] // DOWNSAMPLE), max(1, f.shape[0] // DOWNSAMPLE)),
+    """Black-hat (dark balls) or top-hat (bright balls) of a uint8 frame with a disc wider than a
+    ball, computed in grey levels (the background within a level of the float result), as float32."""
+    small = cv2.resize(frame, (max(1, frame.shape[1] // DOWNSAMPLE), max(1, frame.shape[0] // DOWNSAMPLE)),
                        interpolation=cv2.INTER_AREA)
     k = int(2 * BACKGROUND_DISC * r_px / DOWNSAMPLE) | 1
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
     bg = cv2.morphologyEx(small, cv2.MORPH_CLOSE if polarity == "dark" else cv2.MORPH_OPEN, disc)
-    bg = cv2.resize(bg, (f.shape[1], f.shape[0]), interpolation=cv2.INTER_LINEAR)
-    return np.maximum(bg - f, 0.0) if polarity == "dark" else np.maximum(f - bg, 0.0)
+    bg = cv2.resize(bg, (frame.shape[1], frame.shape[0]), interpolation=cv2.INTER_LINEAR)
+    return (cv2.subtract(bg, frame) if polarity == "dark" else cv2.subtract(frame, bg)).astype(np.float32)
 
 
 def detect_polarity(sample: list[np.ndarray]) -> str:
