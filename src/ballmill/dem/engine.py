@@ -213,8 +213,8 @@ class Engine:
         the loop (as a team's members: team.py), so that the threads share them."""
         for q in range(self.batches * SPACING):
             g = q // SPACING
-            for r in range(g * self.n_rep // self.batches if q % SPACING == 0 else 0,
-                           (g + 1) * self.n_rep // self.batches if q % SPACING == 0 else 0):
+            first, last = g * self.n_rep // self.batches, (g + 1) * self.n_rep // self.batches
+            for r in range(first, last if q % SPACING == 0 else first):
                 i0, i1 = self.p.rep_start[r], self.p.rep_end[r]
                 for i in range(i0, i1 if nsteps > 0 else i0):  # the first step's half kick and drift
                     self.p.kick_drift(i, self.monitor)
