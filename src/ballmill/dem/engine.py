@@ -39,7 +39,7 @@ from .pairs import PairContacts
 from .particles import Particles, capacity
 from .results import Recorder, Results
 from .system import SystemSpec
-from .team import SPACING, Team
+from .team import SPACING, Team, block_lead
 from .walls import LOAD_COLUMNS, Walls, mean_loads
 
 log = logging.getLogger(__name__)
@@ -212,9 +212,8 @@ class Engine:
         are cut into `batches` runs of consecutive replicas, each the only work of its block of
         the loop (as a team's members: team.py), so that the threads share them."""
         for q in range(self.batches * SPACING):
-            g = q // SPACING
-            first, last = g * self.n_rep // self.batches, (g + 1) * self.n_rep // self.batches
-            for r in range(first, last if q % SPACING == 0 else first):
+            g = block_lead(q)  # -1: no replicas
+            for r in range(ti.max(g, 0) * self.n_rep // self.batches, (g + 1) * self.n_rep // self.batches):
                 i0, i1 = self.p.rep_start[r], self.p.rep_end[r]
                 for i in range(i0, i1 if nsteps > 0 else i0):  # the first step's half kick and drift
                     self.p.kick_drift(i, self.monitor)
@@ -270,7 +269,7 @@ class Engine:
         when the list is rebuilt does not change the results (it holds every contact then)."""
         ti.loop_config(block_dim=SPACING)
         for q in range(self.team.members):
-            t, phase_id, passed = self.team.member(q), 0, 0
+            t, phase_id, passed = block_lead(q), 0, 0
             if t >= 0 and nsteps > 0:  # the first step's half kick and drift
                 phase_id = self.team_phase(t, phase_id, k0 + 1, DRIFT)
                 passed = self.team.barrier(passed)

@@ -32,6 +32,13 @@ SPACING = 1024  # iterations per member: a multiple of the runtime's block of 51
 PER_MEMBER, MIN_CHUNK, MAX_CHUNK = 32, 64, 4096
 
 
+@ti.func
+def block_lead(q):
+    """Which block of SPACING iterations q is the first of (-1: not a block's first): the one
+    iteration of its block that does the block's work (a team member, a run of replicas)."""
+    return q // SPACING if q % SPACING == 0 else -1
+
+
 @ti.data_oriented
 class Team:
     """`size` threads sharing `n` particles in chunks, with a barrier."""
@@ -49,11 +56,6 @@ class Team:
         self.claim = ti.field(ti.i32, capacity(max(2 * PER_MEMBER * size, math.ceil(n / MAX_CHUNK) + 1)))
         assert self.n_chunks <= self.claim.shape[0]
         self.arrived = ti.field(ti.i32, ())  # arrivals at barriers this launch
-
-    @ti.func
-    def member(self, q):
-        """Which member iteration q of a loop over `members` iterations is (-1: an empty one)."""
-        return q // SPACING if q % SPACING == 0 else -1
 
     @property
     def members(self) -> int:
