@@ -112,6 +112,33 @@ def test_a_bad_value_in_any_job_refuses_the_whole_sweep_before_it_starts(tmp_pat
     assert not list(tmp_path.iterdir())
 
 
+def test_an_interrupt_a_library_turned_into_another_error_is_not_recorded_as_a_failure(tmp_path, monkeypatch):
+    """Ctrl-C inside matplotlib can surface as an AttributeError; the job must stay unrecorded
+    (so a resumed sweep reruns it), while the same error without an interrupt is a failure."""
+    from omegaconf import OmegaConf
+
+    from ballmill import run as run_module
+
+    def interrupted_inside_a_library(cfg, out_dir):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)  # the handler runs at the next bytecode: well before this ends
+        except KeyboardInterrupt:
+            pass
+        raise AttributeError("'Axes' object has no attribute 'apply_aspect'")
+
+    def failing(cfg, out_dir):
+        raise AttributeError("a real bug")
+
+    cfg = OmegaConf.create({"study": {"name": "x"}})
+    monkeypatch.setattr(run_module, "run", interrupted_inside_a_library)
+    with pytest.raises(KeyboardInterrupt):
+        run_module.attempt(cfg, tmp_path)
+    monkeypatch.setattr(run_module, "run", failing)
+    record = run_module.attempt(cfg, tmp_path)
+    assert record["status"] == "failed" and record["error"] == "AttributeError: a real bug"
+
+
 def test_an_interrupted_sweep_resumes_with_exactly_its_unfinished_jobs(tmp_path):
     """Ctrl-C (SIGINT to the sweep's process group) mid-sweep leaves only whole records; running
     the same command again skips the finished jobs and runs the rest."""

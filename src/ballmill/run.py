@@ -2,9 +2,11 @@
 
 The Hydra task function of `ballmill run`: it checks the scenario (studies.plan), executes the
 plan and writes record.json / record.parquet beside the resolved config.  A failure during the
-run is recorded (status, message, FAILED.json) so a sweep carries on; a job whose folder already
-holds a finished record of the same resolved config is skipped, so a sweep can be resumed (and
-one rerun with, say, another sim reruns every job).  Records are written whole or not at all.
+run is recorded (status, message, FAILED.json) so a sweep carries on; an interrupted job (Ctrl-C)
+writes nothing, even when a library caught the interrupt and failed otherwise; a job whose
+folder already holds a finished record of the same resolved config is skipped, so a sweep can
+be resumed (and one rerun with, say, another sim reruns every job).  Records are written whole
+or not at all.
 """
 
 from __future__ import annotations
@@ -12,7 +14,9 @@ from __future__ import annotations
 import logging
 import os
 import platform
+import signal
 import subprocess
+import threading
 import time
 from pathlib import Path
 
@@ -86,6 +90,41 @@ def finished(out_dir: Path, resolved: str) -> bool:
     return True
 
 
+class InterruptWatch:
+    """Notes a Ctrl-C (SIGINT) inside the block, then handles it as before (Python's handler
+    raises KeyboardInterrupt).  Installed only where a Python handler is in place, in the main
+    thread; elsewhere `seen` stays False."""
+
+    def __enter__(self):
+        self.seen, self.previous = False, None
+        if threading.current_thread() is threading.main_thread() and callable(signal.getsignal(signal.SIGINT)):
+            self.previous = signal.signal(signal.SIGINT, self._note)
+        return self
+
+    def _note(self, signum, frame) -> None:
+        self.seen = True
+        self.previous(signum, frame)
+
+    def __exit__(self, *exc) -> None:
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+
+
+def attempt(cfg: DictConfig, out_dir: Path) -> dict:
+    """The job's record: its results and status "ok", or its failure (status "failed").  An
+    interrupt propagates and is not a failure, also when a library caught it and raised another
+    error instead (matplotlib, cut mid-figure: "'Axes' object has no attribute ..."), so that a
+    resumed sweep reruns the job."""
+    with InterruptWatch() as interrupt:
+        try:
+            return {**run(cfg, out_dir), "status": "ok", "error": ""}
+        except Exception as exc:  # recorded, so the sweep and its report carry on
+            if interrupt.seen:
+                raise KeyboardInterrupt from exc
+            log.exception("run failed")
+            return {"study": cfg.study.name, "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+
+
 @hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
 def main(cfg: DictConfig) -> str:
     """One job: returns its status ("ok", "skipped" or "failed")."""
@@ -98,11 +137,7 @@ def main(cfg: DictConfig) -> str:
     (out_dir / FAILED).unlink(missing_ok=True)
     write_text(out_dir / RESOLVED, resolved)
     started = time.time()
-    try:
-        record = {**run(cfg, out_dir), "status": "ok", "error": ""}
-    except Exception as exc:  # recorded, so the sweep and its report carry on
-        log.exception("run failed")
-        record = {"study": cfg.study.name, "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+    record = attempt(cfg, out_dir)
     record.update(provenance(cfg.sim), wall_time_s=time.time() - started,
                   overrides=" ".join(HydraConfig.get().overrides.task))
     write_record(record, out_dir)
