@@ -8,7 +8,9 @@ D 1.743 m, L 2.614 m, 523 balls of 160 mm, 15 rpm, physical steel (G 77 GPa), dt
 Cases of `large_from` balls or more (the 100,000-ball drum) are timed over shorter
 `large_settle_s` / `large_rotate_s`.  The `scaling` cases run on one thread as well (thread
 scaling); each row carries the launch used, the memory the engine took per particle and the
-share of each phase of a step (`Engine.profile`).
+share of each phase of a step (`Engine.profile`), and the cores' balance measured just before
+our run (`core_balance`: on a shared machine one core can run slower than the other, and a
+team of threads, whose barriers wait for the slower core, then falls below one thread's rate).
 Figures are printed as a table and written as JSON (`json=PATH`); `peer=liggghts`, `lammps` or
 `both` runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
 
@@ -18,7 +20,10 @@ Figures are printed as a table and written as JSON (`json=PATH`); `peer=liggghts
 
 from __future__ import annotations
 
+import os
 import resource
+import subprocess
+import sys
 import time
 from dataclasses import asdict, replace
 
@@ -57,6 +62,7 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
     by_round = []
     for r in range(rounds):
         rates = {"particle_steps_per_s_1_thread": bench_run(spec, sim, 1)[1]} if scaling else {}
+        rates["core_balance"] = core_balance()
         rss0 = resident_bytes()
         engine, rates["particle_steps_per_s"], res, steps_per_rebuild = bench_run(spec, sim, threads)
         if r == 0:  # what the engine did, from the first round
@@ -86,6 +92,23 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
         **({f"{k}_by_round": v.tolist() for k, v in [("particle_steps_per_s", ours), *table.items()]}
            if rounds > 1 else {}),
     }
+
+
+# one pinned one-thread loop: python -c SPIN <core> <iterations> prints its seconds
+SPIN = ("import os, sys, time; os.sched_setaffinity(0, {int(sys.argv[1])}); t = time.perf_counter(); "
+        "sum(i * i % 7 for i in range(int(sys.argv[2]))); print(time.perf_counter() - t)")
+
+
+def core_balance(iterations: int = 4_000_000) -> float:
+    """The speed of this process's slowest core over its fastest (1: equal), all busy at once:
+    one pinned loop per core (~0.25 s each here); nan with a single core."""
+    cores = sorted(os.sched_getaffinity(0))
+    if len(cores) < 2:
+        return float("nan")
+    loops = [subprocess.Popen([sys.executable, "-c", SPIN, str(c), str(iterations)], stdout=subprocess.PIPE, text=True)
+             for c in cores]
+    seconds = [float(p.communicate()[0]) for p in loops]
+    return min(seconds) / max(seconds)
 
 
 def bench_run(spec, sim: SimConfig, threads: int) -> tuple[Engine, float, object, float]:
