@@ -10,7 +10,7 @@ Cases of `large_from` balls or more (the 100,000-ball drum) are timed over short
 scaling); each row carries the launch used, the memory the engine took per particle and the
 share of each phase of a step (`Engine.profile`), and the cores' balance measured just before
 our run (`core_balance`: on a shared machine one core can run slower than the other, and a
-team of threads, whose barriers wait for the slower core, then falls below one thread's rate).
+team of threads, whose barriers wait for the slower core, can then fall below one thread's rate).
 Figures are printed as a table and written as JSON (`json=PATH`); `peer=liggghts`, `lammps` or
 `both` runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
 
