@@ -8,6 +8,8 @@ import os
 import subprocess
 import sys
 import venv
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent
@@ -15,9 +17,18 @@ VENV = ROOT / ".venv"
 BIN = VENV / ("Scripts" if os.name == "nt" else "bin")
 
 
-def sh(*cmd: str) -> None:
-    print("+", " ".join(cmd), flush=True)
-    subprocess.run(cmd, cwd=ROOT, check=True)
+def sh(*cmd: str, tag: str = "", env: dict | None = None) -> None:
+    """Run cmd in the project root; with a tag, each output line is printed behind it."""
+    print(f"{f'[{tag}] ' if tag else ''}+ {' '.join(cmd)}", flush=True)
+    if not tag:
+        subprocess.run(cmd, cwd=ROOT, check=True, env=env)
+        return
+    with subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                          bufsize=1) as proc:
+        for line in proc.stdout:
+            print(f"[{tag}] {line}", end="", flush=True)
+    if proc.returncode:
+        raise subprocess.CalledProcessError(proc.returncode, cmd)
 
 
 def install() -> None:
@@ -26,25 +37,61 @@ def install() -> None:
     sh(str(BIN / "python"), "-m", "pip", "install", "-q", "--disable-pip-version-check", "-e", ".[dev]")
 
 
+def in_two_streams(units: list[tuple[str, Callable[[str, dict], None]]]) -> None:
+    """Run the units (name, function of tag and environment) two at a time, in list order, each on
+    one core: its sweeps' jobs one after another in one process (Hydra's basic launcher), and
+    BALLMILL_LOCAL_JOBS=2 so that a command left to pick its threads takes one.  Two one-core
+    streams keep both cores busy where one two-job sweep at a time would leave one idle while its
+    last job runs and while the next sweep starts.  After a failure no further unit starts."""
+    env = {**os.environ, "BALLMILL_LOCAL_JOBS": "2"}
+    failed: list[str] = []
+
+    def run(name, unit):
+        if failed:
+            return
+        try:
+            unit(name, env)
+        except subprocess.CalledProcessError as exc:
+            failed.append(f"{name}: {' '.join(map(str, exc.cmd))} exited with {exc.returncode}")
+
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        for future in [pool.submit(run, name, unit) for name, unit in units]:
+            future.result()
+    if failed:
+        sys.exit("reproduce stopped (finished results are kept; run it again to resume): " + "; ".join(failed))
+
+
 def reproduce() -> None:
     """The paper's results into outputs/report: Figures 3b and 4 at full stiffness, the whole
     plant around them (MSP against BPR and per state), the shape-rule and stiffness studies,
     and the lab chain (film -> track -> calibrate -> Figure 3a)."""
     ballmill = str(BIN / "ballmill")
     sim = os.environ.get("BALLMILL_SIM", "paper")
-    for sweep in ("fig3b", "fig4", "shape_rule", "plant", "plant_states"):
-        sh(ballmill, "run", f"+sweep={sweep}", f"sim={sim}")
-    sh(ballmill, "run", "+sweep=stiffness")
-    # No real videos ship with the project: film a simulation whose ball-wall pair the
-    # calibration is not told, as the proof of the method, then validate at the calibrated pair.
-    videos, cal = "outputs/lab/videos", "outputs/lab/calibration"
-    sh(ballmill, "render", f"out={videos}", "wall_restitution=0.6", "wall_friction=0.3", "lab.duration_s=1.5",
-       "sim.seed=7")
-    sh(ballmill, "calibrate", f"videos={videos}", f"out={cal}", "lab.duration_s=1.5")
-    best = json.loads((ROOT / cal / "best.json").read_text())
-    sh(ballmill, "run", "+sweep=lab_validation", f"interactions.steel-pmma.restitution={best['wall_restitution']}",
-       f"interactions.steel-pmma.static_friction={best['wall_friction']}", f"study.observations={cal}/observations.csv")
-    sh(ballmill, "run", "+sweep=mm400_geometry")
+
+    def sweep(name: str, *overrides: str):
+        return name, lambda tag, env: sh(ballmill, "run", f"+sweep={name}", "hydra/launcher=basic", *overrides,
+                                         tag=tag, env=env)
+
+    def lab_chain(tag: str, env: dict) -> None:
+        # No real videos ship with the project: film a simulation whose ball-wall pair the
+        # calibration is not told, as the proof of the method, then validate at the calibrated pair.
+        videos, cal = "outputs/lab/videos", "outputs/lab/calibration"
+        sh(ballmill, "render", f"out={videos}", "wall_restitution=0.6", "wall_friction=0.3", "lab.duration_s=1.5",
+           "sim.seed=7", tag=tag, env=env)
+        sh(ballmill, "calibrate", f"videos={videos}", f"out={cal}", "lab.duration_s=1.5", tag=tag, env=env)
+        best = json.loads((ROOT / cal / "best.json").read_text())
+        sh(ballmill, "run", "+sweep=lab_validation", "hydra/launcher=basic",
+           f"interactions.steel-pmma.restitution={best['wall_restitution']}",
+           f"interactions.steel-pmma.static_friction={best['wall_friction']}",
+           f"study.observations={cal}/observations.csv", tag=tag, env=env)
+        sh(ballmill, "run", "+sweep=mm400_geometry", "hydra/launcher=basic", tag=tag, env=env)
+
+    # Largest first (one-core seconds of a reproduce run: plant per state ~320, Figure 4 ~300,
+    # lab chain ~250, shape rule ~150, plant ~140, Figure 3b ~100, stiffness ~25), so that the
+    # two streams end together.
+    in_two_streams([sweep("plant_states", f"sim={sim}"), sweep("fig4", f"sim={sim}"), ("lab", lab_chain),
+                    sweep("shape_rule", f"sim={sim}"), sweep("plant", f"sim={sim}"), sweep("fig3b", f"sim={sim}"),
+                    sweep("stiffness")])
     names = ("fig3b", "fig4", "shape_rule", "plant", "plant_states", "stiffness", "lab_validation", "mm400_geometry")
     sh(ballmill, "report", f"sweeps=[{','.join(f'outputs/sweeps/{name}' for name in names)}]")
 
