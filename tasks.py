@@ -87,8 +87,8 @@ def reproduce() -> None:
            f"study.observations={cal}/observations.csv", tag=tag, env=env)
         sh(ballmill, "run", "+sweep=mm400_geometry", "hydra/launcher=basic", tag=tag, env=env)
 
-    # Largest first (one-core seconds of a reproduce run: plant per state ~320, Figure 4 ~300,
-    # lab chain ~250, shape rule ~150, plant ~140, Figure 3b ~100, stiffness ~25), so that the
+    # Largest first (one-core seconds in a reproduce run: plant per state ~320, Figure 4 ~265,
+    # lab chain ~175, shape rule ~165, plant ~130, Figure 3b ~60, stiffness ~20), so that the
     # two streams end together.
     in_two_streams([sweep("plant_states", f"sim={sim}"), sweep("fig4", f"sim={sim}"), ("lab", lab_chain),
                     sweep("shape_rule", f"sim={sim}"), sweep("plant", f"sim={sim}"), sweep("fig3b", f"sim={sim}"),
