@@ -40,10 +40,11 @@ def install(extras: str) -> None:
 
 def in_two_streams(units: list[tuple[str, Callable[[str, dict], None]]]) -> None:
     """Run the units (name, function of tag and environment) two at a time, in list order, each on
-    one core: its sweeps' jobs one after another in one process (Hydra's basic launcher), and
-    BALLMILL_LOCAL_JOBS=2 so that a command left to pick its threads takes one.  Two one-core
-    streams keep both cores busy where one two-job sweep at a time would leave one idle while its
-    last job runs and while the next sweep starts.  After a failure no further unit starts."""
+    one core: its sweeps' jobs one after another in one process (Hydra's basic launcher; every
+    sweep file sets sim.threads=1), and BALLMILL_LOCAL_JOBS=2 so that a command left to pick its
+    threads (render, calibrate) takes one.  Two one-core streams keep both cores busy where one
+    two-job sweep at a time would leave one idle while its last job runs and while the next sweep
+    starts.  After a failure no further unit starts."""
     env = {**os.environ, "BALLMILL_LOCAL_JOBS": "2"}
     failed: list[str] = []
 
