@@ -56,9 +56,14 @@ def in_two_streams(units: list[tuple[str, Callable[[str, dict], None]]]) -> None
         except subprocess.CalledProcessError as exc:
             failed.append(f"{name}: {' '.join(map(str, exc.cmd))} exited with {exc.returncode}")
 
-    with ThreadPoolExecutor(max_workers=2) as pool:
+    pool = ThreadPoolExecutor(max_workers=2)
+    try:
         for future in [pool.submit(run, name, unit) for name, unit in units]:
             future.result()
+    except KeyboardInterrupt:
+        failed.append("interrupted")
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
     if failed:
         sys.exit("reproduce stopped (finished results are kept; run it again to resume): " + "; ".join(failed))
 
