@@ -81,6 +81,15 @@ def test_bright_balls_on_dark_background_from_an_image_folder(tmp_path):
     assert abs(r["speed_ratio"] - 1) < 0.02, r
 
 
+@pytest.mark.parametrize("suffix", [".avi", ".mkv"])
+def test_both_video_containers_give_back_the_frames_written(tmp_path, suffix):
+    rng = np.random.default_rng(5)
+    frames = [rng.integers(0, 256, (40, 64), dtype=np.uint8) for _ in range(5)]
+    video = write_frames(frames, tmp_path / f"noise{suffix}", FPS, 0.25)
+    back = list(read_frames(video))
+    assert len(back) == 5 and all(np.array_equal(a, b) for a, b in zip(frames, back))
+
+
 def test_tracker_settings_are_checked():
     with pytest.raises(ValueError, match="balls=3"):
         TrackerSettings(balls=3)
