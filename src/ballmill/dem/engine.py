@@ -223,18 +223,16 @@ class Engine:
                         self.nl.build_replica(r)
                     for b in range(self.n_body):
                         self.mo.pose(r, b, k * self.p.dt[None])
-                    if s < nsteps - 1:
-                        for i in range(i0, i1):
-                            self.particle_phase(i, k, PAIRS | FINISH | DRIFT)
-                    else:  # the launch ends with its last step's end
-                        for i in range(i0, i1):
-                            self.pairs.forces(i, k)
-                            self.finish(i, k, nsteps > 0)
+                    for i in range(i0, i1):  # the step's end and, unless the launch ends here, the next's start
+                        self.pairs.forces(i, k)
+                        self.finish(i, k, nsteps > 0)
+                        if s < nsteps - 1:
+                            self.p.kick_drift(i, self.monitor)
 
     @ti.func
-    def team_phase(self, t, phase_id, k, phase: ti.template()):
+    def team_phase(self, t, phase_id, k, phase: ti.template(), drift):
         """Member t's share of one phase: its own chunks, then chunks of members still busy (team.py);
-        returns the next phase's number."""
+        returns the next phase's number.  `drift`: whether a DRIFT in `phase` is done."""
         chunk, n = self.team.chunk[None], self.p.live[None]
         for v in range(self.team.size):
             first, last = self.team.own((t + v) % self.team.size)
@@ -242,19 +240,21 @@ class Engine:
                 c = first + m if v == 0 else last - 1 - m
                 if self.team.take(c, phase_id):
                     for i in range(c * chunk, ti.min((c + 1) * chunk, n)):
-                        self.particle_phase(i, k, phase)
+                        self.particle_phase(i, k, phase, drift)
         return phase_id + 1
 
     @ti.func
-    def particle_phase(self, i, k, phase: ti.template()):
+    def particle_phase(self, i, k, phase: ti.template(), drift):
         """Particle i's part of the phases in `phase` (bits), in step order: its pair contacts,
-        the step's end (FINISH), then the next step's half kick and drift (DRIFT)."""
+        the step's end (FINISH), then, if `drift`, the next step's half kick and drift (DRIFT; a
+        run-time flag, so that the launch's last step compiles the step's end no second time)."""
         if ti.static(phase & PAIRS):
             self.pairs.forces(i, k)
         if ti.static(phase & FINISH):
             self.finish(i, k, True)
-        if ti.static(phase & DRIFT):
-            self.p.kick_drift(i, self.monitor)
+        if ti.static(phase & DRIFT):  # noqa: SIM102 (compiled out when static; `drift` at run time)
+            if drift:
+                self.p.kick_drift(i, self.monitor)
         if ti.static(phase & BUILD):
             self.nl.build_particle(i)
         if ti.static(phase & LINK):
@@ -271,7 +271,7 @@ class Engine:
         for q in range(self.team.members):
             t, phase_id, passed = block_lead(q), 0, 0
             if t >= 0 and nsteps > 0:  # the first step's half kick and drift
-                phase_id = self.team_phase(t, phase_id, k0 + 1, DRIFT)
+                phase_id = self.team_phase(t, phase_id, k0 + 1, DRIFT, True)
                 passed = self.team.barrier(passed)
             for s in range(nsteps if t >= 0 else 0):
                 k = k0 + s + 1
@@ -279,21 +279,19 @@ class Engine:
                     if t == 0:
                         self.nl.bin_all()
                     passed = self.team.barrier(passed)
-                    phase_id = self.team_phase(t, phase_id, k, BUILD)
+                    phase_id = self.team_phase(t, phase_id, k, BUILD, False)
                     passed = self.team.barrier(passed)
-                    phase_id = self.team_phase(t, phase_id, k, LINK)
+                    phase_id = self.team_phase(t, phase_id, k, LINK, False)
                     if t == 0:
                         self.nl.built()
                     passed = self.team.barrier(passed)
                 if t == 0:
                     for r, b in ti.ndrange(self.n_rep, self.n_body):
                         self.mo.pose(r, b, k * self.p.dt[None])
-                phase_id = self.team_phase(t, phase_id, k, PAIRS)
+                phase_id = self.team_phase(t, phase_id, k, PAIRS, False)
                 passed = self.team.barrier(passed)
-                if s < nsteps - 1:
-                    phase_id = self.team_phase(t, phase_id, k, FINISH | DRIFT)
-                else:  # the launch ends with its last step's end
-                    phase_id = self.team_phase(t, phase_id, k, FINISH)
+                # the step's end and, unless the launch ends here, the next step's start
+                phase_id = self.team_phase(t, phase_id, k, FINISH | DRIFT, s < nsteps - 1)
                 passed = self.team.barrier(passed)
 
     @ti.kernel
