@@ -10,9 +10,9 @@ ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda}
 PRECISIONS = {"f64": ti.f64, "f32": ti.f32}
 LOCAL_JOBS_ENV = "BALLMILL_LOCAL_JOBS"  # jobs a sweep runs at once on this machine (set by the sweep)
 # Taichi's compiled-kernel cache (~/.cache/taichi): its default cap, 100 MB, is less than the
-# kernels of the engine's size classes that the test suite and the reproduce command use (~200
-# MB), and at that cap each process evicts a quarter of it (least recently used), so that a
-# suite run after a reproduce run compiled 438 kernels again (16 min 54 s instead of ~11).
+# kernels of the engine's size classes that the test suite and the reproduce command compile,
+# and at that cap each process evicts a quarter of it (least recently used), so that a suite
+# run after a few reproduce runs compiled 438 kernels again (16 min 54 s instead of ~11).
 OFFLINE_CACHE_BYTES = 1 << 30
 
 
