@@ -79,3 +79,29 @@ def test_a_pickle_planted_as_checkpoint_runs_no_code(tmp_path):
     planted.write_bytes(pickle.dumps(Planted(str(tmp_path / "pwned"))))
     assert Checkpoint(planted, 0.1, "key").resume(None, None, "drum") == 0
     assert not (tmp_path / "pwned").exists()
+
+
+def test_a_field_set_moves_every_kind_of_field_as_to_numpy_and_from_numpy_would():
+    import numpy as np
+    import taichi as ti
+
+    from ballmill.dem import init_taichi
+    from ballmill.dem.transfer import FieldSet
+
+    init_taichi("cpu", "f64", 1)
+    fields = {"vector": ti.Vector.field(3, float, (4, 2)), "matrix": ti.Matrix.field(2, 3, float, 5),
+              "mask": ti.field(ti.u64, ()), "ids": ti.field(ti.i32, 7), "point": ti.Vector.field(3, float, ()),
+              "grid": ti.field(float, (2, 3, 4))}
+    rng = np.random.default_rng(1)
+    values = {}
+    for name, field in fields.items():
+        like = field.to_numpy()
+        values[name] = (rng.integers(0, 2**63, like.shape, dtype=np.uint64) if like.dtype == np.uint64 else
+                        rng.integers(-9, 9, like.shape).astype(like.dtype) if like.dtype == np.int32 else
+                        rng.normal(size=like.shape))
+    moved = FieldSet(fields)
+    moved.write(values)
+    read = moved.read()
+    for name, field in fields.items():
+        assert np.array_equal(field.to_numpy(), values[name]), name
+        assert read[name].dtype == values[name].dtype and np.array_equal(read[name], values[name]), name

@@ -15,14 +15,18 @@ DRUM = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.01) 
 SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.15)  # dt 2.2e-5 s; the drum turns from 0.15 s
 
 
-def simulate(threads=2, launches=1, drum=DRUM, **options):
+def simulate(threads=2, launches=1, drum=DRUM, kinds=None, **options):
     """10,000 steps (0.22 s) of a settling, then turning, charge; what the test needs, as numpy
-    (each call restarts Taichi, so no engine outlives it)."""
+    (each call restarts Taichi, so no engine outlives it).  `kinds`: a team engine's launches
+    run by these launches in turn (what its pacer may choose)."""
     spec = drum_spec(drum, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, SIM)
     init_taichi("cpu", "f64", threads)
     engine = Engine(spec, EngineOptions(dt_s=time_step_s(spec, SIM), **options))
-    for _ in range(launches):
-        engine.advance(10_000 // launches)
+    for k in range(launches):
+        if kinds:
+            engine._run_steps(kinds[k % len(kinds)], 10_000 // launches)
+        else:
+            engine.advance(10_000 // launches)
     x, v, w = engine.kinematics()
     return {"x": x, "v": v, "w": w,
             "radius": spec.radius_m, "contact_pairs": engine.nl.contact_pairs(), "rebuilds": engine.rebuilds()}
@@ -56,6 +60,12 @@ def test_every_launch_and_thread_count_gives_identical_bits(reference):
         for key in ("x", "v", "w"):
             assert np.array_equal(other[key], reference[key]), (threads, launch, key)
         assert other["rebuilds"] == reference["rebuilds"], (threads, launch)
+
+
+def test_a_team_engine_that_hands_its_steps_to_one_thread_and_back_gives_identical_bits(reference):
+    handed = simulate(threads=2, launches=5, launch="team", kinds=("team", "serial"))
+    for key in ("x", "v", "w"):
+        assert np.array_equal(handed[key], reference[key]), key
 
 
 def test_the_gpu_binning_path_gives_the_cpu_paths_contacts_and_bits(reference):

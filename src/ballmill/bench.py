@@ -8,9 +8,11 @@ D 1.743 m, L 2.614 m, 523 balls of 160 mm, 15 rpm, physical steel (G 77 GPa), dt
 Cases of `large_from` balls or more (the 100,000-ball drum) are timed over shorter
 `large_settle_s` / `large_rotate_s`.  The `scaling` cases run on one thread as well (thread
 scaling); each row carries the launch used, the memory the engine took per particle and the
-share of each phase of a step (`Engine.profile`), and the cores' balance measured just before
+share of each phase of a step (`Engine.profile`), the cores' balance measured just before
 our run (`core_balance`: on a shared machine one core can run slower than the other, and a
-team of threads, whose barriers wait for the slower core, can then fall below one thread's rate).
+team of threads, whose barriers wait for the slower core, can then fall below one thread's
+rate) and the share of the timed steps that the team's pacer gave to one thread for that
+reason (`one_thread_share`, dem/team.py).
 Figures are printed as a table and written as JSON (`json=PATH`); `peer=liggghts`, `lammps` or
 `both` runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
 
@@ -64,7 +66,8 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
         rates = {"particle_steps_per_s_1_thread": bench_run(spec, sim, 1)[1]} if scaling else {}
         rates["core_balance"] = core_balance()
         rss0 = resident_bytes()
-        engine, rates["particle_steps_per_s"], res, steps_per_rebuild = bench_run(spec, sim, threads)
+        engine, rates["particle_steps_per_s"], res, steps_per_rebuild, rates["one_thread_share"] = \
+            bench_run(spec, sim, threads)
         if r == 0:  # what the engine did, from the first round
             first = {"launch": engine.launch, "dt_s": engine.dt, "steps_per_rebuild": steps_per_rebuild,
                      "contacts_per_particle": engine.contacts_per_particle(),
@@ -111,18 +114,20 @@ def core_balance(iterations: int = 4_000_000) -> float:
     return min(seconds) / max(seconds)
 
 
-def bench_run(spec, sim: SimConfig, threads: int) -> tuple[Engine, float, object, float]:
+def bench_run(spec, sim: SimConfig, threads: int) -> tuple[Engine, float, object, float, float]:
     """Settle, then time the rotation on `threads` threads: (engine, particle-steps/s, results,
-    steps per list build during the rotation)."""
+    steps per list build during the rotation, share of its steps a team's pacer ran on one thread)."""
     init_taichi(sim.arch, sim.precision, threads)
     # E = 2e8 Pa lets the bed sink ~3-6 % of a radius under its own weight: allow 10 %.
     engine = Engine(spec, replace(engine_options(sim, time_step_s(spec, sim)), collision_log=False))
     engine.run(sim.settle_s, sim.sample_every_s, label="settle")
+    one_thread0 = engine.pacer.steps["serial"] if engine.pacer else 0
     builds0, t0 = engine.rebuilds(), time.perf_counter()
     res = engine.run(sim.duration_s, sim.sample_every_s, label="rotate")
     steps = round(sim.duration_s / engine.dt)
     rate = spec.n_particles * steps / (time.perf_counter() - t0)
-    return engine, rate, res, steps / max(engine.rebuilds() - builds0, 1)
+    one_thread = (engine.pacer.steps["serial"] - one_thread0) / steps if engine.pacer else 0.0
+    return engine, rate, res, steps / max(engine.rebuilds() - builds0, 1), one_thread
 
 
 def resident_bytes() -> float:

@@ -11,7 +11,9 @@ Three ways to run steps, chosen once per system (`Engine.launch`):
 - serial: many whole steps per launch, parallel over replicas and serial inside each
   (small systems and batches of replicas, where launch overhead would dominate);
 - team: many whole steps per launch by a team of CPU threads sharing the particles, with a
-  barrier between phases (large systems on a CPU with two or more threads; team.py);
+  barrier between phases (large systems on a CPU with two or more threads; team.py); when
+  chosen automatically, its pacer runs the steps on one thread (the serial launch) while that
+  is faster, as when another process takes one of the cores (team.Pacer);
 - parallel: one kernel launch per step, parallel over particles (a GPU).
 All call the same functions per particle.  Serial and team runs end a particle's step and
 start its next (half kick, drift) in one pass and rebuild a due list after that drift; that
@@ -39,7 +41,8 @@ from .pairs import PairContacts
 from .particles import Particles, capacity
 from .results import Recorder, Results
 from .system import SystemSpec
-from .team import SPACING, Team, block_lead
+from .team import SPACING, Pacer, Team, block_lead
+from .transfer import FieldSet
 from .walls import LOAD_COLUMNS, Walls, mean_loads
 
 log = logging.getLogger(__name__)
@@ -141,9 +144,12 @@ class Engine:
         self.walls = Walls(spec, self.p, self.tables, self.mo, self.monitor, self.book, k, options.collision_log)
         threads = max(ti.lang.impl.current_cfg().cpu_max_num_threads, 1)
         self.team = Team(threads, self.n) if self.launch == "team" else None
+        # the launch chosen here (not asked for) runs on one thread while that is faster
+        self.pacer = Pacer(self.n, threads) if self.team and options.launch is None else None
         self.batches = min(self.n_rep, BATCHES_PER_THREAD * threads)  # of replicas, in a serial launch
         self.max_overlap = self.monitor.max_overlap
         self.step_index = 0
+        self._state_set = None
         if self.launch == "serial":  # the list (due from the start), then the first forces
             self._serial_steps(0, 0)
         else:
@@ -307,28 +313,41 @@ class Engine:
         self.p.export_kinematics(kin)
 
     # ---------------------------------------------------------------- driving
+    def _run_steps(self, kind: str, nsteps: int) -> None:
+        """nsteps steps by the serial or the team launch (a team engine may run either: same bits)."""
+        if kind == "serial":
+            self._serial_steps(self.step_index, nsteps)
+            self.step_index += nsteps
+            return
+        done = 0
+        while done < nsteps:  # launches short enough that the team's i32 counters cannot overflow
+            part = min(nsteps - done, self.team.max_steps_per_launch)
+            self.team.reset()
+            self._team_steps(self.step_index, part)
+            self.step_index += part
+            done += part
+        self._due = bool(self.nl.any_due[None])
+
     def advance(self, nsteps: int) -> None:
         """Advance nsteps time steps (none: nothing happens)."""
         if nsteps <= 0:
             return
-        if self.launch == "serial":
-            self._serial_steps(self.step_index, nsteps)
-            self.step_index += nsteps
-        elif self.launch == "team":
-            done = 0
-            while done < nsteps:  # launches short enough that the team's i32 counters cannot overflow
-                part = min(nsteps - done, self.team.max_steps_per_launch)
-                self.team.reset()
-                self._team_steps(self.step_index, part)
-                self.step_index += part
-                done += part
-            self._due = bool(self.nl.any_due[None])
-        else:
+        if self.launch == "parallel":
             for _ in range(nsteps):
                 if self._due:
                     self.nl.build_all()
                 self.step_index += 1
                 self._due = bool(self._step(self.step_index, STEP))
+        elif self.pacer:
+            done = 0
+            while done < nsteps:
+                kind, part = self.pacer.plan(nsteps - done)
+                t0 = time.perf_counter()
+                self._run_steps(kind, part)
+                self.pacer.record(kind, part, time.perf_counter() - t0)
+                done += part
+        else:
+            self._run_steps(self.launch, nsteps)
         self._accumulated_steps += nsteps
 
     def profile(self, nsteps: int) -> dict[str, float]:
@@ -411,16 +430,20 @@ class Engine:
         bar.close()
         return recorder.finish(self)
 
-    def _state_fields(self):
-        for part in ("p", "nl", "walls", "book", "monitor"):
-            for name in type(getattr(self, part)).STATE:
-                yield f"{part}.{name}", getattr(getattr(self, part), name)
+    @property
+    def _state_fields(self) -> FieldSet:
+        """The fields each part names as its STATE, moved in one launch (compiled on first use)."""
+        if self._state_set is None:
+            self._state_set = FieldSet({f"{part}.{name}": getattr(getattr(self, part), name)
+                                        for part in ("p", "nl", "walls", "book", "monitor")
+                                        for name in type(getattr(self, part)).STATE})
+        return self._state_set
 
     def state(self) -> dict:
         """Everything a run needs to continue: the fields each part names as its STATE, and the
         counters.  The rest is the spec's (constants, geometry, the wall motions, posed anew
         every step) or recomputed by the list rebuild that follows a restore."""
-        return {"fields": {name: f.to_numpy() for name, f in self._state_fields()},
+        return {"fields": self._state_fields.read(),
                 "step_index": self.step_index, "accumulated_steps": self._accumulated_steps,
                 "initial_energy_j": self.initial_energy_j}
 
@@ -428,8 +451,7 @@ class Engine:
         """Set the state's fields and counters.  The neighbour list is rebuilt before the next
         step: the state may come from a run with another launch, and when the list is rebuilt
         does not change the results (tests/test_neighbour_list.py)."""
-        for name, f in self._state_fields():
-            f.from_numpy(state["fields"][name])
+        self._state_fields.write(state["fields"])
         self.step_index = state["step_index"]
         self._accumulated_steps, self.initial_energy_j = state["accumulated_steps"], state["initial_energy_j"]
         self.nl.due.fill(1)

@@ -19,11 +19,14 @@ two iterations runs both on one thread), so member t is iteration t * SPACING of
 size * SPACING iterations (`members`), each in a block of its own, the others empty.
 """
 
+import logging
 import math
 
 import taichi as ti
 
 from .particles import capacity
+
+log = logging.getLogger(__name__)
 
 SPACING = 1024  # iterations per member: a multiple of the runtime's block of 512
 # chunks: about 32 per member, so that the chunks taken from a busy member even out the load
@@ -93,3 +96,72 @@ class Team:
     def take(self, c, phase):
         """Whether this member takes chunk c in `phase` (no other member took it yet)."""
         return ti.atomic_max(self.claim[c], phase) < phase
+
+
+class Pacer:
+    """Runs a team engine's steps on the team or on one thread, whichever is faster now.
+
+    A team's barriers wait for its slowest member, so a core taken by another process slows
+    the whole team: the BPR 19 mill (523 balls, 2 threads) ran at 3.4-4.0e6 particle-steps/s
+    with a busy loop on one core, against 7.0-8.7e6 on one thread.  Both launches give the same
+    bits (engine.py), so the pacer may switch at any launch.  It times one thread on a short
+    probe once the team has run PROBE_AFTER_S, and again whenever the team falls below SLOWDOWN
+    of its best rate; while one thread is ahead it tries the team again after a wait of one
+    thread's running time that doubles each time the team loses (RETRY_S).  The first launch of
+    each kind compiles, and is not timed."""
+
+    PROBE_AFTER_S = 2.0  # team running time (s) before a probe of one thread
+    PROBE_S = 0.25  # a probe's length (s), at the rate of what runs now
+    SLOWDOWN = 0.75  # a team rate below this share of its best asks for a probe
+    MARGIN = 1.1  # the other launch takes over when it is this much faster
+    RETRY_S = (2.0, 64.0)  # one thread's running time before the team is tried again: first, most
+
+    def __init__(self, n_particles: int, threads: int):
+        self.n, self.threads = n_particles, threads
+        self.current = "team"
+        self.rate = {"team": 0.0, "serial": 0.0}  # latest measured particle-steps per second
+        self.best_team = 0.0
+        self.compiled: set[str] = set()
+        self.since_probe_s = 0.0  # running time of the current launch since the last probe
+        self.retry_s = self.RETRY_S[0]
+        self.steps = {"team": 0, "serial": 0}
+
+    def plan(self, remaining: int) -> tuple[str, int]:
+        """The launch for the next steps and how many of the `remaining` it runs."""
+        other = "serial" if self.current == "team" else "team"
+        if self.current == "team":
+            probe = self.since_probe_s >= self.PROBE_AFTER_S and (
+                not self.rate["serial"] or self.rate["team"] < self.SLOWDOWN * self.best_team)
+        else:
+            probe = self.since_probe_s >= self.retry_s
+        if not probe:
+            return self.current, remaining
+        if other not in self.compiled:
+            return other, 1
+        return other, max(1, min(remaining, round(self.PROBE_S * self.rate[self.current] / self.n)))
+
+    def record(self, kind: str, steps: int, seconds: float) -> None:
+        """What the last launch did: `steps` steps of `kind` in `seconds` of wall time."""
+        self.steps[kind] += steps
+        if kind not in self.compiled:
+            self.compiled.add(kind)
+            return
+        rate = self.n * steps / max(seconds, 1e-9)
+        self.rate[kind] = rate
+        if kind == "team":
+            self.best_team = max(self.best_team, rate)
+        if kind == self.current:
+            self.since_probe_s += seconds
+            return
+        self.since_probe_s = 0.0
+        if rate > self.MARGIN * self.rate[self.current]:
+            log.info("%d balls: %s at %.3g particle-steps/s against %.3g: running %s", self.n, self._name(kind), rate,
+                     self.rate[self.current], self._name(kind))
+            self.current = kind
+            self.best_team = self.rate["team"]
+            self.retry_s = self.RETRY_S[0]
+        elif kind == "team":
+            self.retry_s = min(2 * self.retry_s, self.RETRY_S[1])
+
+    def _name(self, kind: str) -> str:
+        return f"the team of {self.threads} threads" if kind == "team" else "one thread"
