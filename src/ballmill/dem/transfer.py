@@ -1,10 +1,11 @@
 """Many fields to and from NumPy in one kernel launch per element type.
 
 Taichi's `to_numpy` and `from_numpy` run one kernel per field, and a new engine sets each up
-afresh (~15 ms a field with the kernel cache warm): reading an engine's saved state, 37
-fields, took ~0.6 s and writing it back ~1.6 s.  A FieldSet flattens its fields, by element
-type, one after another into one array and copies them in one launch: the same values, bit
-for bit, in the arrays `to_numpy` gives (tests/test_checkpoint.py).
+afresh (~15-45 ms a field with the kernel cache warm).  A FieldSet flattens its fields, by
+element type, one after another into one array and copies them in one launch: the same
+values, bit for bit, in the arrays `to_numpy` gives (tests/test_checkpoint.py).  An engine's
+saved state, 37 fields (124-ball mill, fresh process, cache warm): read in 0.41-0.50 s
+instead of 0.59-0.74 s, written back in 0.42-0.52 s instead of 1.65 s.
 """
 
 import numpy as np
