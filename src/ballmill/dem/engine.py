@@ -150,11 +150,11 @@ class Engine:
         self.max_overlap = self.monitor.max_overlap
         self.step_index = 0
         self._state_set = None
-        if self.launch == "serial":  # the list (due from the start), then the first forces
-            self._serial_steps(0, 0)
-        else:
+        if self.launch == "parallel":
             self.nl.build_all()
             self._first_forces()
+        else:  # the list (due from the start), then the first forces; compiles what a team's pacer may run
+            self._serial_steps(0, 0)
         self.book.cumulative.fill(0.0)  # the first forces set the stored energies; no time has passed
         self._due = bool(self.nl.any_due[None])
         self._accumulated_steps = 1

@@ -104,40 +104,39 @@ class Pacer:
     A team's barriers wait for its slowest member, so a core taken by another process slows
     the whole team: the BPR 19 mill (523 balls, 2 threads) ran at 3.4-4.0e6 particle-steps/s
     with a busy loop on one core, against 7.0-8.7e6 on one thread.  Both launches give the same
-    bits (engine.py), so the pacer may switch at any launch.  It times one thread on a short
-    probe once the team has run PROBE_AFTER_S, and again whenever the team falls below SLOWDOWN
-    of its best rate; while one thread is ahead it tries the team again after a wait of one
-    thread's running time that doubles each time the team loses (RETRY_S).  The first launch of
-    each kind compiles, and is not timed."""
+    bits (engine.py), so the pacer may switch at any launch.  It times the team over windows of
+    PROBE_AFTER_S of running time, and after a window in which the team was not MARGIN ahead of
+    one thread's last rate (or before any), it times one thread on a short probe: a team
+    clearly ahead is not probed again.  While one thread is ahead, it tries the team after a
+    window of one thread's running time that doubles each time the team loses (RETRY_S).  The
+    team's first launch compiles, and is not timed (the engine compiled the serial launch when
+    it computed its first forces)."""
 
-    PROBE_AFTER_S = 2.0  # team running time (s) before a probe of one thread
+    PROBE_AFTER_S = 2.0  # a window of the team's running time (s)
     PROBE_S = 0.25  # a probe's length (s), at the rate of what runs now
-    SLOWDOWN = 0.75  # a team rate below this share of its best asks for a probe
     MARGIN = 1.1  # the other launch takes over when it is this much faster
     RETRY_S = (2.0, 64.0)  # one thread's running time before the team is tried again: first, most
 
     def __init__(self, n_particles: int, threads: int):
         self.n, self.threads = n_particles, threads
-        self.current = "team"
-        self.rate = {"team": 0.0, "serial": 0.0}  # latest measured particle-steps per second
-        self.best_team = 0.0
-        self.compiled: set[str] = set()
-        self.since_probe_s = 0.0  # running time of the current launch since the last probe
+        self.current, self.probing = "team", False
+        self.rate = {"team": 0.0, "serial": 0.0}  # particle-steps per second, as last measured
+        self.compiled = {"serial"}  # a team engine's first forces ran the serial launch
+        self.window = [0, 0.0]  # steps and seconds of the current launch in this window
         self.retry_s = self.RETRY_S[0]
         self.steps = {"team": 0, "serial": 0}
 
     def plan(self, remaining: int) -> tuple[str, int]:
         """The launch for the next steps and how many of the `remaining` it runs."""
-        other = "serial" if self.current == "team" else "team"
-        if self.current == "team":
-            probe = self.since_probe_s >= self.PROBE_AFTER_S and (
-                not self.rate["serial"] or self.rate["team"] < self.SLOWDOWN * self.best_team)
-        else:
-            probe = self.since_probe_s >= self.retry_s
-        if not probe:
+        steps, seconds = self.window
+        if seconds >= (self.PROBE_AFTER_S if self.current == "team" else self.retry_s):
+            rate = self.rate[self.current] = self.n * steps / seconds
+            self.window = [0, 0.0]
+            self.probing = self.current == "serial" or rate < self.MARGIN * self.rate["serial"] or \
+                not self.rate["serial"]
+        if not self.probing:
             return self.current, remaining
-        if other not in self.compiled:
-            return other, 1
+        other = "serial" if self.current == "team" else "team"
         return other, max(1, min(remaining, round(self.PROBE_S * self.rate[self.current] / self.n)))
 
     def record(self, kind: str, steps: int, seconds: float) -> None:
@@ -145,23 +144,18 @@ class Pacer:
         self.steps[kind] += steps
         if kind not in self.compiled:
             self.compiled.add(kind)
-            return
-        rate = self.n * steps / max(seconds, 1e-9)
-        self.rate[kind] = rate
-        if kind == "team":
-            self.best_team = max(self.best_team, rate)
-        if kind == self.current:
-            self.since_probe_s += seconds
-            return
-        self.since_probe_s = 0.0
-        if rate > self.MARGIN * self.rate[self.current]:
-            log.info("%d balls: %s at %.3g particle-steps/s against %.3g: running %s", self.n, self._name(kind), rate,
-                     self.rate[self.current], self._name(kind))
-            self.current = kind
-            self.best_team = self.rate["team"]
-            self.retry_s = self.RETRY_S[0]
-        elif kind == "team":
-            self.retry_s = min(2 * self.retry_s, self.RETRY_S[1])
+        elif kind == self.current:
+            self.window[0] += steps
+            self.window[1] += seconds
+        else:
+            self.probing = False
+            rate = self.rate[kind] = self.n * steps / max(seconds, 1e-9)
+            if rate > self.MARGIN * self.rate[self.current]:
+                log.info("%d balls: %s at %.3g particle-steps/s against %.3g: running %s", self.n, self._name(kind),
+                         rate, self.rate[self.current], self._name(kind))
+                self.current, self.retry_s = kind, self.RETRY_S[0]
+            elif kind == "team":
+                self.retry_s = min(2 * self.retry_s, self.RETRY_S[1])
 
     def _name(self, kind: str) -> str:
         return f"the team of {self.threads} threads" if kind == "team" else "one thread"
