@@ -82,7 +82,8 @@ class SimConfig:
     launch: str = field(default="auto", metadata={
         "choices": ("auto", "serial", "team", "parallel"),
         "doc": "serial: whole steps per launch (auto: replica batches, < 500 balls or one thread); team: "
-               "whole steps per launch by all CPU threads (auto: larger systems on a CPU); parallel: a launch a step"})
+               "whole steps per launch by all CPU threads (auto: larger systems on a CPU, on one thread while that "
+               "is faster); parallel: a launch a step"})
     collision_log: bool = field(default=True, metadata={"doc": "record every finished contact (collisions table)"})
     progress_every_s: float = rng(30.0, 0.0, None, lo_open=True, doc="wall-clock time between progress log lines (s)")
 
