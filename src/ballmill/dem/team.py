@@ -102,7 +102,7 @@ class Pacer:
     """Runs a team engine's steps on the team or on one thread, whichever is faster now.
 
     A team's barriers wait for its slowest member, so a core taken by another process slows
-    the whole team: the BPR 19 mill (523 balls, 2 threads) ran at 3.4-4.0e6 particle-steps/s
+    the whole team: the BPR 19 mill (523 balls, 2 threads) ran at 3.1-4.0e6 particle-steps/s
     with a busy loop on one core, against 7.0-8.7e6 on one thread.  Both launches give the same
     bits (engine.py), so the pacer may switch at any launch.  It times the team over windows of
     PROBE_AFTER_S of running time, and after a window in which the team was not MARGIN ahead of
