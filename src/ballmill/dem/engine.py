@@ -326,7 +326,6 @@ class Engine:
             self._team_steps(self.step_index, part)
             self.step_index += part
             done += part
-        self._due = bool(self.nl.any_due[None])
 
     def advance(self, nsteps: int) -> None:
         """Advance nsteps time steps (none: nothing happens)."""

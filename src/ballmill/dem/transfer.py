@@ -37,18 +37,19 @@ class _Group:
 
     def __init__(self, items: list):
         self.dtype = to_numpy_type(items[0][1].dtype)
-        self.items, offset = [], 0  # (name, field, offset, field shape, element shape, components)
+        self.items, offset = [], 0  # (name, field, offset, values, field shape, element shape, components)
         for name, field in items:
             elem = element_shape(field)
             comps = int(np.prod(elem, dtype=int))
-            self.items.append((name, field, offset, tuple(field.shape), elem, comps))
-            offset += int(np.prod(field.shape, dtype=int)) * comps
+            size = int(np.prod(field.shape, dtype=int)) * comps
+            self.items.append((name, field, offset, size, tuple(field.shape), elem, comps))
+            offset += size
         self.size = offset
         self.chunks = [self.items[i:i + UNROLL] for i in range(0, len(self.items), UNROLL)]
 
     @ti.func
     def _copy(self, item: ti.template(), flat: ti.template(), to_flat: ti.template()):
-        _, field, offset, shape, elem, comps = ti.static(item)
+        _name, field, offset, _size, shape, elem, comps = ti.static(item)
         if ti.static(len(shape) == 0):
             self._element(field, None, flat, offset, elem, comps, to_flat)
         else:
@@ -91,13 +92,13 @@ class _Group:
     def read(self) -> dict[str, np.ndarray]:
         flat = np.zeros(self.size, self.dtype)
         self._read(flat)
-        return {name: flat[offset:offset + int(np.prod(shape, dtype=int)) * comps].reshape(shape + elem)
-                for name, _, offset, shape, elem, comps in self.items}
+        return {name: flat[offset:offset + size].reshape(shape + elem)
+                for name, _, offset, size, shape, elem, _ in self.items}
 
     def write(self, values: dict[str, np.ndarray]) -> None:
         flat = np.empty(self.size, self.dtype)
-        for name, _, offset, shape, elem, comps in self.items:
-            flat[offset:offset + int(np.prod(shape, dtype=int)) * comps] = np.asarray(values[name]).reshape(-1)
+        for name, _, offset, size, *_ in self.items:
+            flat[offset:offset + size] = np.asarray(values[name]).reshape(-1)
         self._write(flat)
 
 
