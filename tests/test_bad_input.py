@@ -107,7 +107,7 @@ RUN = [
     (["study=plant", "plant.construction_fractions=[0.5,0.4]"], r"plant.construction_fractions=\[0.5, 0.4\] sum to 0.9"),
     (["study=plant", "scaleup.naoh_to_stoichiometric=0.5"], r"scaleup.naoh_to_stoichiometric=0.5 is below the conversion"),
     (["study=plant", "scaleup.naoh_feed_kg_per_h=400"], r"study=plant: give the NaOH as scaleup.naoh_to_stoichiometric"),
-    (["scaleup.pet_feed_kg_per_h=1e12"], r"mill: .* balls need about .* GiB for the DEM \(3\.9 kB per ball\), more .*"),
+    (["scaleup.pet_feed_kg_per_h=1e12"], r"mill: .* balls need about .* GiB for the DEM \(2\.8 kB per ball\), more .*"),
     (["economics.cost_exponent=3"], r"economics.cost_exponent=3.0 is outside the allowed range \(0.0, 2.0\]"),
     (["economics.cepci_target_year=2030"], r"cepci.csv: no row with year=2030; have \["),
     (["economics.prices_file=missing.csv"], r"data table 'missing.csv' not found in .*; available: \["),

@@ -70,13 +70,8 @@ class NeighbourList:
         # per particle: sums over its own list
         self.f_own, self.t_own = ti.Vector.field(3, float), ti.Vector.field(3, float)
         records(cap, self.f_own, self.t_own)
-        # scratch for a rebuild: the new list of i before it replaces the old one
+        # scratch for a rebuild: the new partners of i before they replace the old ones
         self.new_j = ti.field(ti.i32, (cap, k))
-        self.new_start = ti.field(ti.i32, (cap, k))
-        self.new_xi = ti.Vector.field(3, float, (cap, k))
-        self.new_vn0 = ti.field(float, (cap, k))
-        self.new_ed = ti.field(float, (cap, k))
-        self.new_f = ti.Vector.field(3, float, (cap, k))
         self.x_ref = ti.Vector.field(3, float, cap)
         self.due = ti.field(ti.i32, reps)  # 1: rebuild the replica's list before its next step
         self.any_due = ti.field(ti.i32, ())
@@ -170,6 +165,25 @@ class NeighbourList:
         return cnt, low
 
     @ti.func
+    def old_slot(self, i, s, step, n_old, j):
+        """From slot s of i's old list, moving by `step` (+1 or -1), the first slot whose partner
+        is not past j (below it moving up, above it moving down), and whether it holds j."""
+        while 0 <= s < n_old:  # Taichi evaluates both sides of `and`: no read out of the row
+            if (self.nb_j[i, s] - j) * step >= 0:
+                break
+            s += step
+        found = False
+        if 0 <= s < n_old:
+            found = self.nb_j[i, s] == j
+        return s, found
+
+    @ti.func
+    def move_record(self, i, s, c):
+        """The record of slot s of i's list (history, kept force) into slot c."""
+        self.start[i, c], self.xi[i, c], self.vn0[i, c] = self.start[i, s], self.xi[i, s], self.vn0[i, s]
+        self.ed[i, c], self.f[i, c] = self.ed[i, s], self.f[i, s]
+
+    @ti.func
     def build_particle(self, i):
         """New list of i (partners in id order), history carried over by partner id."""
         cnt, low = 0, 0
@@ -191,20 +205,31 @@ class NeighbourList:
         # partners in id order: forces are summed in the same order whatever the skin
         self.sort_row(self.new_j, i, cnt)
         self.sort_row(self.rv_slot, i, low)
+        # each kept pair's record moves in place from its old slot to its new one.  Both lists are in
+        # partner order, so kept pairs keep their order: those moving down are moved lowest first,
+        # then those moving up highest first, and no record is overwritten before it is read
+        n_old = self.nb_n[i]
+        s = 0
         for c in range(cnt):
-            j = self.new_j[i, c]
-            self.new_start[i, c] = -1
-            self.new_xi[i, c], self.new_f[i, c] = ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0, 0.0])
-            self.new_vn0[i, c], self.new_ed[i, c] = 0.0, 0.0
-            for s in range(self.nb_n[i]):
-                if self.nb_j[i, s] == j:
-                    self.new_start[i, c], self.new_xi[i, c] = self.start[i, s], self.xi[i, s]
-                    self.new_vn0[i, c], self.new_ed[i, c], self.new_f[i, c] = self.vn0[i, s], self.ed[i, s], self.f[i, s]
+            s, kept = self.old_slot(i, s, 1, n_old, self.new_j[i, c])
+            if kept and s > c:
+                self.move_record(i, s, c)
+        s = n_old - 1
+        for m in range(cnt):
+            c = cnt - 1 - m
+            s, kept = self.old_slot(i, s, -1, n_old, self.new_j[i, c])
+            if kept and s < c:
+                self.move_record(i, s, c)
+        s = 0
+        for c in range(cnt):  # a new pair: a fresh record
+            s, kept = self.old_slot(i, s, 1, n_old, self.new_j[i, c])
+            if not kept:
+                self.start[i, c], self.vn0[i, c], self.ed[i, c] = -1, 0.0, 0.0
+                self.xi[i, c], self.f[i, c] = ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0, 0.0])
         open_ = ti.u64(0)
         for c in range(cnt):
-            self.nb_j[i, c], self.start[i, c], self.xi[i, c] = self.new_j[i, c], self.new_start[i, c], self.new_xi[i, c]
-            self.vn0[i, c], self.ed[i, c], self.f[i, c] = self.new_vn0[i, c], self.new_ed[i, c], self.new_f[i, c]
-            if self.new_start[i, c] >= 0:
+            self.nb_j[i, c] = self.new_j[i, c]
+            if self.start[i, c] >= 0:
                 open_ |= bit(c)
         self.nb_n[i], self.rv_n[i], self.open[i] = cnt, low, open_
         self.x_ref[i] = self.p.x[i]
