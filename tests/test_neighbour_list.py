@@ -107,3 +107,34 @@ def test_a_batch_of_replicas_shared_by_two_threads_gives_the_one_thread_bits():
     assert (moved > 1e-3).all()  # 8,000 steps (15 ms) in swinging jars: every ball has moved
     for one, two in zip(runs[1], runs[2]):
         assert np.array_equal(one, two)
+
+
+def test_a_rebuild_carries_each_kept_pairs_record_to_its_new_slot():
+    """A rebuild moves the records in place (neighbours.build_particle): after one at the bed's
+    positions 3,000 steps into its fall, every pair still listed keeps its record (collision
+    start, tangential spring, impact speed, dissipation, kept force) bit for bit, in another
+    slot for some (up and down), and every new pair starts out of contact."""
+    spec = drum_spec(DRUM, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, SIM)
+    init_taichi("cpu", "f64", 1)
+    engine = Engine(spec, EngineOptions(dt_s=time_step_s(spec, SIM), skin_fraction=1.0))
+    engine.advance(3_000)
+    nl, n = engine.nl, engine.n
+
+    def records():
+        nb_n, nb_j = nl.nb_n.to_numpy()[:n], nl.nb_j.to_numpy()[:n]
+        fields = [getattr(nl, name).to_numpy()[:n] for name in ("start", "xi", "vn0", "ed", "f")]
+        return {(i, nb_j[i, s]): (s, *np.concatenate([np.ravel(f[i, s]).astype(float) for f in fields]))
+                for i in range(n) for s in range(nb_n[i])}
+
+    before = records()
+    nl.build_all()
+    after = records()
+    kept = before.keys() & after.keys()
+    moved = [after[key][0] - before[key][0] for key in kept]
+    assert min(moved) < 0 < max(moved)  # kept pairs moved to lower and to higher slots
+    assert before.keys() - after.keys() and after.keys() - before.keys()  # pairs left the list, others joined
+    assert sum(before[key][1] >= 0 for key in kept) > 50  # open contacts among them (86)
+    for key in kept:
+        assert before[key][1:] == after[key][1:], key
+    for key in after.keys() - before.keys():
+        assert after[key][1] == -1, key
