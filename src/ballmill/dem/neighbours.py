@@ -209,26 +209,25 @@ class NeighbourList:
         # partner order, so kept pairs keep their order: those moving down are moved lowest first,
         # then those moving up highest first, and no record is overwritten before it is read
         n_old = self.nb_n[i]
-        s = 0
+        s, kept = 0, ti.u64(0)  # bit c: new slot c holds a pair of the old list
         for c in range(cnt):
-            s, kept = self.old_slot(i, s, 1, n_old, self.new_j[i, c])
-            if kept and s > c:
-                self.move_record(i, s, c)
+            s, found = self.old_slot(i, s, 1, n_old, self.new_j[i, c])
+            if found:
+                kept |= bit(c)
+                if s > c:
+                    self.move_record(i, s, c)
         s = n_old - 1
         for m in range(cnt):
             c = cnt - 1 - m
-            s, kept = self.old_slot(i, s, -1, n_old, self.new_j[i, c])
-            if kept and s < c:
+            s, found = self.old_slot(i, s, -1, n_old, self.new_j[i, c])
+            if found and s < c:
                 self.move_record(i, s, c)
-        s = 0
-        for c in range(cnt):  # a new pair: a fresh record
-            s, kept = self.old_slot(i, s, 1, n_old, self.new_j[i, c])
-            if not kept:
-                self.start[i, c], self.vn0[i, c], self.ed[i, c] = -1, 0.0, 0.0
-                self.xi[i, c], self.f[i, c] = ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0, 0.0])
         open_ = ti.u64(0)
         for c in range(cnt):
             self.nb_j[i, c] = self.new_j[i, c]
+            if (kept & bit(c)) == 0:  # a new pair: a fresh record
+                self.start[i, c], self.vn0[i, c], self.ed[i, c] = -1, 0.0, 0.0
+                self.xi[i, c], self.f[i, c] = ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0, 0.0])
             if self.start[i, c] >= 0:
                 open_ |= bit(c)
         self.nb_n[i], self.rv_n[i], self.open[i] = cnt, low, open_
