@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from ballmill.config import BallSizeConfig, DrumConfig, InteractionConfig, LinerConfig, MaterialConfig, SimConfig
-from ballmill.dem import Engine, EngineOptions, init_taichi
+from ballmill.dem import Engine, EngineOptions, Motion, init_taichi
+from ballmill.dem.geometry import CAPSULE, CYLINDER, PLANE
+from ballmill.dem.walls import still_under
 from ballmill.drum import drum_spec
 from ballmill.lab import Condition, mm400_spec
 from ballmill.scenario import compose, load, time_step_s
@@ -15,21 +17,27 @@ DRUM = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.01) 
 SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.15)  # dt 2.2e-5 s; the drum turns from 0.15 s
 
 
-def simulate(threads=2, launches=1, drum=DRUM, kinds=None, **options):
+def simulate(threads=2, launches=1, drum=DRUM, kinds=None, every_wall=False, **options):
     """10,000 steps (0.22 s) of a settling, then turning, charge; what the test needs, as numpy
     (each call restarts Taichi, so no engine outlives it).  `kinds`: a team engine's launches
-    run by these launches in turn (what its pacer may choose)."""
+    run by these launches in turn (what its pacer may choose); `every_wall`: every wall is
+    tested for contact at every step, none left out as out of reach."""
     spec = drum_spec(drum, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, SIM)
     init_taichi("cpu", "f64", threads)
     engine = Engine(spec, EngineOptions(dt_s=time_step_s(spec, SIM), **options))
+    if every_wall:
+        engine.walls.w_still.fill(0)
+        engine.nl.build_all()  # marks every wall within reach of every ball (a rebuild changes no result)
     for k in range(launches):
         if kinds:
             engine._run_steps(kinds[k % len(kinds)], 10_000 // launches)
         else:
             engine.advance(10_000 // launches)
     x, v, w = engine.kinematics()
-    return {"x": x, "v": v, "w": w,
-            "radius": spec.radius_m, "contact_pairs": engine.nl.contact_pairs(), "rebuilds": engine.rebuilds()}
+    return {"x": x, "v": v, "w": w, "events": engine.drain_events(),
+            "radius": spec.radius_m, "contact_pairs": engine.nl.contact_pairs(), "rebuilds": engine.rebuilds(),
+            "walls_in_reach": engine.walls.reach.to_numpy()[:spec.n_particles],
+            "wall_contacts": engine.walls.c_n.to_numpy()[engine.step_index % 2, :spec.n_particles]}
 
 
 @pytest.fixture(scope="module")
@@ -75,6 +83,35 @@ def test_the_gpu_binning_path_gives_the_cpu_paths_contacts_and_bits(reference):
     assert gpu_path["rebuilds"] == reference["rebuilds"]
     for key in ("x", "v", "w"):
         assert np.array_equal(gpu_path[key], reference[key]), key
+
+
+def test_walls_out_of_reach_are_left_out_without_changing_a_bit(reference):
+    """At each list build a ball marks the analytic walls it may touch before the next build
+    (walls.py): the drum's shell and ends keep their distances as it turns, so most balls leave
+    them out.  Testing every wall at every step gives the same bits and the same collisions."""
+    reach = reference["walls_in_reach"]
+    assert (reach == 0).mean() > 0.3  # balls with no wall in reach (of the shell and two ends)
+    assert reference["wall_contacts"].sum() > 30  # and balls in contact with a wall
+    every = simulate(launch="parallel", every_wall=True)
+    assert (every["walls_in_reach"] == 0b111).all()
+    for key in ("x", "v", "w"):
+        assert np.array_equal(every[key], reference[key]), key
+    for ours, theirs in zip(every["events"], reference["events"]):
+        assert np.array_equal(ours, theirs)
+
+
+@pytest.mark.parametrize(("motion", "kind", "point", "axis", "still"), [
+    (Motion(axis=(0, 1, 0), angular_velocity_rad_per_s=1.6), CYLINDER, (0, 0, 0), (0, 1, 0), True),  # drum shell
+    (Motion(axis=(0, 1, 0), angular_velocity_rad_per_s=1.6), PLANE, (0, -0.1, 0), (0, 1, 0), True),  # drum end
+    (Motion(axis=(0, 1, 0), angular_velocity_rad_per_s=1.6), PLANE, (0, 0, -0.1), (0, 0, 1), False),  # a flat
+    (Motion(pivot_m=(0.05, 0, 0), axis=(0, 1, 0), angular_velocity_rad_per_s=1.6), CYLINDER, (0, 0, 0), (0, 1, 0),
+     False),  # a shell turning off its axis
+    (Motion(axis=(0, 0, 1), angle_amplitude_rad=0.1, frequency_hz=25), CAPSULE, (0, 0, 0), (1, 0, 0), False),
+    (Motion(translation_amplitude_m=(0.01, 0, 0), frequency_hz=25), CAPSULE, (0, 0, 0), (1, 0, 0), False),  # MM400
+    (Motion(), PLANE, (0, 0, 0), (0, 0, 1), True),  # at rest
+])
+def test_a_wall_is_left_out_only_under_a_motion_that_keeps_its_distances(motion, kind, point, axis, still):
+    assert still_under(motion, kind, point, axis) is still
 
 
 def test_a_bidisperse_lifter_drum_gives_identical_bits_for_any_threads_launches_and_skin():

@@ -13,7 +13,9 @@ our run (`core_balance`: on a shared machine one core can run slower than the ot
 team of threads, whose barriers wait for the slower core, can then fall below one thread's
 rate) and the share of the timed steps that the team's pacer gave to one thread for that
 reason (`one_thread_share`, dem/team.py).
-Figures are printed as a table and written as JSON (`json=PATH`); `peer=liggghts`, `lammps` or
+Figures are printed as a table and written as JSON (`json=PATH`) with the machine they were
+measured on (CPU model and cache sizes: whether a bed fits in the last-level cache decides
+how the rate holds up with size); `peer=liggghts`, `lammps` or
 `both` runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
 
 `mm400=true`: the MM400 batch instead, a 10 x 10 grid of ball-wall restitution x friction, one
@@ -23,11 +25,13 @@ Figures are printed as a table and written as JSON (`json=PATH`); `peer=liggghts
 from __future__ import annotations
 
 import os
+import platform
 import resource
 import subprocess
 import sys
 import time
 from dataclasses import asdict, replace
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -130,6 +134,21 @@ def bench_run(spec, sim: SimConfig, threads: int) -> tuple[Engine, float, object
     return engine, rate, res, steps / max(engine.rebuilds() - builds0, 1), one_thread
 
 
+def machine() -> dict:
+    """The CPU the figures come from: model, cores this process may use, and each data cache
+    level's size per instance (bytes; from Linux's /proc and /sys, only the cores elsewhere)."""
+    cpuinfo = Path("/proc/cpuinfo")
+    lines = cpuinfo.read_text().splitlines() if cpuinfo.exists() else []
+    model = next((line.split(":", 1)[1].strip() for line in lines if line.startswith("model name")), platform.machine())
+    caches = {}
+    for index in sorted(Path("/sys/devices/system/cpu/cpu0/cache").glob("index*")):
+        if (index / "type").read_text().strip() != "Instruction":
+            size = (index / "size").read_text().strip()
+            scale = {"K": 1024, "M": 1024**2}.get(size[-1], 1)
+            caches[f"L{(index / 'level').read_text().strip()}_bytes"] = int(size.rstrip("KM")) * scale
+    return {"cpu": model, "cores": len(os.sched_getaffinity(0)), **caches}
+
+
 def resident_bytes() -> float:
     """Memory the process holds now (resident set, bytes)."""
     with open("/proc/self/statm") as f:
@@ -179,4 +198,6 @@ def main(opts: BenchConfig) -> None:
     print("\n" + " | ".join(keys))
     for r in rows:
         print(" | ".join(_cell(r.get(k, "")) for k in keys))
-    write_json(opts.json, {"options": asdict(opts), "rows": rows})
+    here = machine()
+    print("machine: " + ", ".join(f"{k} {v}" for k, v in here.items()))
+    write_json(opts.json, {"options": asdict(opts), "machine": here, "rows": rows})

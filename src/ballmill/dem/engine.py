@@ -59,12 +59,12 @@ LAUNCHES = ("serial", "team", "parallel")
 # grid: 200 one-ball jars; Taichi's CPU runtime would run a loop over them on one thread).
 BATCHES_PER_THREAD = 4
 # Memory of the engine's fields (f64), measured on a 3,645-ball drum: 525 B per particle, plus the
-# 4 B that pad a partner's record to 96 B and the 8 B open-contact mask added since, and 32 B per
-# buffered collision; from the fields' sizes, 108 B per neighbour-list slot (partner, reverse slot,
-# the slot's record of history, force and torque padded to 96 B, and a rebuild's new partner:
-# 4+4+96+4) and 144 B per wall-contact slot (key, history and force, double buffered:
-# 2 x (4+4+8+8+24+24)).
-PARTICLE_BYTES, PAIR_SLOT_BYTES, WALL_SLOT_BYTES, EVENT_BYTES = 537, 108, 144, 32
+# 4 B that pad a partner's record to 96 B, the 8 B open-contact mask and the 4 B mask of walls
+# within reach added since, and 32 B per buffered collision; from the fields' sizes, 108 B per
+# neighbour-list slot (partner, reverse slot, the slot's record of history, force and torque
+# padded to 96 B, and a rebuild's new partner: 4+4+96+4) and 144 B per wall-contact slot (key,
+# history and force, double buffered: 2 x (4+4+8+8+24+24)).
+PARTICLE_BYTES, PAIR_SLOT_BYTES, WALL_SLOT_BYTES, EVENT_BYTES = 541, 108, 144, 32
 DRIFT, POSE, PAIRS, FINISH = 1, 2, 4, 8  # phases of a step
 BUILD, LINK = 16, 32  # phases of a neighbour-list rebuild
 STEP = DRIFT | POSE | PAIRS | FINISH
@@ -137,11 +137,12 @@ class Engine:
         self.monitor = Monitor(options.event_capacity)
         self.tables = PairTables(spec)
         self.mo = Motions(spec, self.n_rep)
-        self.nl = NeighbourList(spec, self.p, self.monitor, k, options.skin_fraction * float(spec.radius_m.max()),
-                                self.use_grid, options.parallel_binning)
+        skin = options.skin_fraction * float(spec.radius_m.max())
         self.book = EnergyBook(self.p)
-        self.pairs = PairContacts(self.p, self.tables, self.nl, self.monitor, self.book, options.collision_log)
         self.walls = Walls(spec, self.p, self.tables, self.mo, self.monitor, self.book, k, options.collision_log)
+        self.nl = NeighbourList(spec, self.p, self.monitor, self.walls, k, skin, self.use_grid,
+                                options.parallel_binning)
+        self.pairs = PairContacts(self.p, self.tables, self.nl, self.monitor, self.book, options.collision_log)
         threads = max(ti.lang.impl.current_cfg().cpu_max_num_threads, 1)
         self.team = Team(threads, self.n) if self.launch == "team" else None
         # the launch chosen here (not asked for) runs on one thread while that is faster

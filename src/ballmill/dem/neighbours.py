@@ -14,8 +14,9 @@ also lists the slots (j, s) of the lower partners that hold it, the reverse list
 The list stays valid while no particle has moved more than skin / 2 from where it was at
 the build: at the end of every step each particle checks where its next drift will take
 it and, if that is past skin / 2, marks its replica for a rebuild before the next step.
-A rebuild carries each pair's history over by partner id.  A larger skin means fewer
-rebuilds but more candidate pairs to test every step.
+A rebuild carries each pair's history over by partner id, and marks the analytic walls
+within the same reach of each particle (walls.py).  A larger skin means fewer rebuilds but
+more candidate pairs to test every step.
 """
 
 import math
@@ -45,10 +46,10 @@ class NeighbourList:
     # step's pair loop
     STATE = ("nb_n", "nb_j", "start", "xi", "vn0", "ed", "f", "builds")
 
-    def __init__(self, spec, particles, monitor, capacity: int, skin_m: float, use_grid: bool,
+    def __init__(self, spec, particles, monitor, walls, capacity: int, skin_m: float, use_grid: bool,
                  parallel_binning: bool | None = None):
         cap, reps = particles.cap, spec.n_replicas
-        self.p, self.monitor = particles, monitor
+        self.p, self.monitor, self.walls = particles, monitor, walls
         if not 1 <= capacity <= MAX_SLOTS:
             raise ValueError(f"max_contacts_per_particle={capacity} must lie in [1, {MAX_SLOTS}]")
         self.n_rep, self.k_max, self.skin, self.use_grid = reps, capacity, skin_m, use_grid
@@ -232,6 +233,7 @@ class NeighbourList:
                 open_ |= bit(c)
         self.nb_n[i], self.rv_n[i], self.open[i] = cnt, low, open_
         self.x_ref[i] = self.p.x[i]
+        self.walls.mark_within_reach(i, self.skin)
 
     @ti.func
     def link_reverse(self, i):

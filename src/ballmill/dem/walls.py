@@ -1,8 +1,12 @@
 """Sphere-wall contacts: analytic walls and triangle meshes, their history and the wall loads.
 
-Contacts are found in the body frame of each wall (one frame change per particle and
-body), then resolved with the same contact law as sphere-sphere contacts (a wall is a body
-of infinite mass and radius).  Each particle keeps its wall contacts in slots double
+At each neighbour-list build a particle marks the analytic walls within its reach (radius +
+skin): the walls whose motion keeps their distances (a drum's shell and ends turning about
+its axis, a wall at rest) and that lie farther are left out until the next build, as the
+list leaves out far particles; the others are tested at every step.  Contacts are found in
+the body frame of each wall (one frame change per particle and body), then resolved with the
+same contact law as sphere-sphere contacts (a wall is a body of infinite mass and radius).
+Each particle keeps its wall contacts in slots double
 buffered by step parity (old: the previous step, new: this one), keyed by partner:
 cap + w for analytic wall w, cap + n_wall + t for triangle t (cap: the particle capacity).  A
 sphere touches each analytic wall at most once, so without meshes a particle gets one slot per
@@ -25,6 +29,7 @@ MESH_CELLS_PER_SIDE = 64  # a mesh's bounding box is binned into at most this ma
 EDGE_SLOTS = 4  # edge/vertex contacts of one ball with one mesh, in distinct directions
 EDGE_SAME = math.cos(math.radians(20.0))  # normals closer than 20 deg: the same contact direction
 LOAD_COLUMNS = 11  # force (3), torque (3), rolling torque (3), power, rolling power
+MAX_WALLS = 32  # analytic walls: one bit each in a particle's mask of walls within reach
 
 
 def wall_slots(analytic_walls: int, meshes: bool, capacity: int) -> int:
@@ -45,6 +50,8 @@ class Walls:
         self._build_primitives(spec)
         self.k_max = wall_slots(self.n_wall, self.n_mesh > 0, capacity)
         cap, k, b = self.cap, self.k_max, max(self.n_body, 1)
+        # bit w: analytic wall w is within reach of the particle (set at each list build)
+        self.reach = ti.field(ti.u32, cap)
         self.c_n = ti.field(ti.i32, (2, cap))
         # one record per (parity, particle, slot); c_f: the force on the particle at that step
         self.c_key, self.c_start, self.c_vn, self.c_ed = ti.field(ti.i32), ti.field(ti.i32), ti.field(float), ti.field(float)
@@ -74,6 +81,8 @@ class Walls:
                                  wall.half_length_m))
         rows.sort(key=lambda row: row[1])  # grouped by body: one frame change per body
         self.n_wall, self.n_tri, self.n_mesh = len(rows), len(tris), len(meshes)
+        if self.n_wall > MAX_WALLS:
+            raise ValueError(f"{self.n_wall} analytic walls: at most {MAX_WALLS} (use a mesh for more)")
         # the body of each analytic wall and of each mesh (what the collision log names)
         self.wall_body = np.array([row[1] for row in rows], int)
         self.mesh_body = np.array([b for b, _, _ in meshes], int)
@@ -89,6 +98,12 @@ class Walls:
             self.w_kind[k], self.w_body[k], self.w_mat[k] = kind, b, mat
             self.w_point[k], self.w_axis[k] = point, axis
             self.w_radius[k], self.w_half[k] = radius, half
+        # 1: the wall's motion in that replica keeps every point's distance to it (see still_under)
+        self.w_still = ti.field(ti.i32, (spec.n_replicas, nw))
+        for r in range(spec.n_replicas):
+            for k, (kind, b, _, point, axis, _, _) in enumerate(rows):
+                motions = spec.bodies[b].motions
+                self.w_still[r, k] = still_under(motions[r if len(motions) > 1 else 0], kind, point, axis)
         self._build_meshes(spec, np.array(tris).reshape(-1, 3, 3), tri_body, tri_mat, meshes)
 
     def _build_meshes(self, spec, tris, tri_body, tri_mat, meshes) -> None:
@@ -168,6 +183,29 @@ class Walls:
                 if self.m_tri0[m] <= t < self.m_tri1[m]:
                     out = self.cap + self.n_wall + self.n_tri + m
         return out
+
+    # ---------------------------------------------------------------- walls within reach
+    @ti.func
+    def mark_within_reach(self, i, skin):
+        """At a list build: mark the analytic walls particle i may touch before the next build.
+        The list holds while no particle moves more than skin / 2, so a wall whose motion keeps
+        every distance to it (`still_under`) and that lies farther than radius + skin is out of
+        reach until then.  Such a wall is where it lies at rest, where the body frame is the
+        world's, whatever the pose; every other wall is marked."""
+        p = self.p
+        r = p.rep[i]
+        marks = ti.u32(0)
+        for w in range(self.n_wall):
+            near = True
+            if self.w_still[r, w]:
+                point, axis, half = self.w_point[w], self.w_axis[w], self.w_half[w]
+                delta, _, _ = wall_geometry(self.w_kind[w], point, axis, self.w_radius[w], half, p.x[i], p.rad[i] + skin)
+                near = delta > 0.0
+                if self.w_kind[w] == CYLINDER:  # past its open ends a sphere may come back into range
+                    near = near or ti.abs((p.x[i] - point).dot(axis)) > half - skin
+            if near:
+                marks |= ti.u32(1) << ti.cast(w, ti.u32)
+        self.reach[i] = marks
 
     # ---------------------------------------------------------------- contacts of one particle
     @ti.func
@@ -298,14 +336,15 @@ class Walls:
         f = ti.Vector([0.0, 0.0, 0.0])
         t = ti.Vector([0.0, 0.0, 0.0])
         cnt, elastic = 0, ti.Vector([0.0, 0.0])  # Hertz, spring (J)
-        last_b, xb = -1, p.x[i]
+        last_b, xb, reach = -1, p.x[i], self.reach[i]
         for w in range(self.n_wall if ti.static(self.n_wall > 0) else 0):
-            b = self.w_body[w]
-            if b != last_b:  # walls are grouped by body
-                xb, last_b = self.mo.to_body(r, b, p.x[i]), b
-            delta, nb, cb = wall_geometry(
-                self.w_kind[w], self.w_point[w], self.w_axis[w], self.w_radius[w], self.w_half[w], xb, p.rad[i]
-            )
+            delta, nb, cb, b = -1.0, ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0, 0.0]), self.w_body[w]
+            if reach & (ti.u32(1) << ti.cast(w, ti.u32)):
+                if b != last_b:  # walls are grouped by body
+                    xb, last_b = self.mo.to_body(r, b, p.x[i]), b
+                delta, nb, cb = wall_geometry(
+                    self.w_kind[w], self.w_point[w], self.w_axis[w], self.w_radius[w], self.w_half[w], xb, p.rad[i]
+                )
             if delta > 0.0:
                 slot = self.find_slot(i, old, self.cap + w)
                 df, dt_, de, cnt = self.contact(i, self.cap + w, b, self.w_mat[w], delta, nb, cb, old, new, cnt, k, slot)
@@ -356,6 +395,22 @@ class Walls:
                 self.acc_pw_roll[i, b] = 0.0
             for c in ti.static(range(LOAD_COLUMNS)):
                 out[r, b, c] = acc[c]
+
+
+def still_under(motion, kind: int, point, axis) -> bool:
+    """Whether `motion` keeps the distance of every point to the wall (kind, point, axis in body
+    frame): a body at rest, or one turning about its pivot's axis with no translation, where the
+    wall is a plane across that axis or a cylinder or capsule around it (a drum's shell and ends)."""
+    if any(motion.translation_amplitude_m):
+        return False
+    if motion.angular_velocity_rad_per_s == 0.0 and motion.angle_amplitude_rad == 0.0:
+        return True
+    a = np.asarray(unit(motion.axis))
+    across = np.linalg.norm(np.cross(axis, a)) < 1e-12
+    if kind == PLANE:
+        return bool(across)
+    off_axis = np.linalg.norm(np.cross(np.asarray(point, float) - np.asarray(motion.pivot_m, float), a))
+    return bool(across and off_axis < 1e-12 * max(1.0, float(np.linalg.norm(point))))
 
 
 def mean_loads(out: np.ndarray, steps: int) -> dict[str, np.ndarray]:
