@@ -1,9 +1,9 @@
-"""The benchmark's machine check (the benchmark itself is a command, not a test)."""
+"""The benchmark's machine checks (the benchmark itself is a command, not a test)."""
 
 import math
 import os
 
-from ballmill.bench import core_balance
+from ballmill.bench import core_balance, machine
 
 
 def test_core_balance_is_the_slowest_cores_speed_over_the_fastests_and_nan_on_one_core():
@@ -15,3 +15,10 @@ def test_core_balance_is_the_slowest_cores_speed_over_the_fastests_and_nan_on_on
         assert math.isnan(core_balance(200_000))
     finally:
         os.sched_setaffinity(0, cores)
+
+
+def test_the_figures_name_the_machine_they_come_from():
+    here = machine()
+    assert here["cpu"] and here["cores"] == len(os.sched_getaffinity(0))
+    if os.path.isdir("/sys/devices/system/cpu/cpu0/cache"):  # Linux: every data cache level, in bytes
+        assert here["L1_bytes"] >= 4096 and here["L2_bytes"] > here["L1_bytes"]
