@@ -102,3 +102,7 @@ class Body:
     material: str
     walls: tuple = ()
     motions: tuple[Motion, ...] = field(default_factory=lambda: (Motion(),))
+
+    def motion(self, replica: int) -> Motion:
+        """The body's motion in that replica."""
+        return self.motions[replica if len(self.motions) > 1 else 0]

@@ -37,7 +37,7 @@ class Motions:
         rows["axis"][..., 2] = 1.0
         for k, body in enumerate(spec.bodies):
             for rep in range(r):
-                m = body.motions[rep if len(body.motions) > 1 else 0]
+                m = body.motion(rep)
                 rows["pivot"][rep, k], rows["axis"][rep, k] = m.pivot_m, unit(m.axis)
                 rows["trans"][rep, k] = m.translation_amplitude_m
                 rows["omega"][rep, k], rows["amp"][rep, k] = m.angular_velocity_rad_per_s, m.angle_amplitude_rad

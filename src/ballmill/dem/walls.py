@@ -6,12 +6,12 @@ its axis, a wall at rest) and that lie farther are left out until the next build
 list leaves out far particles; the others are tested at every step.  Contacts are found in
 the body frame of each wall (one frame change per particle and body), then resolved with the
 same contact law as sphere-sphere contacts (a wall is a body of infinite mass and radius).
-Each particle keeps its wall contacts in slots double
-buffered by step parity (old: the previous step, new: this one), keyed by partner:
-cap + w for analytic wall w, cap + n_wall + t for triangle t (cap: the particle capacity).  A
-sphere touches each analytic wall at most once, so without meshes a particle gets one slot per
-wall (a drum: 3); a mesh can give more contacts, and then it gets the configured capacity.  The
-reaction on each body is accumulated per (particle, body) and summed in particle order when drained.
+Each particle keeps its wall contacts in slots double buffered by step parity (old: the
+previous step, new: this one), keyed by partner: cap + w for analytic wall w,
+cap + n_wall + t for triangle t (cap: the particle capacity).  A sphere touches each analytic
+wall at most once, so without meshes a particle gets one slot per wall (a drum: 3); a mesh
+can give more contacts, and then it gets the configured capacity.  The reaction on each body
+is accumulated per (particle, body) and summed in particle order when drained.
 """
 
 import math
@@ -102,8 +102,7 @@ class Walls:
         self.w_still = ti.field(ti.i32, (spec.n_replicas, nw))
         for r in range(spec.n_replicas):
             for k, (kind, b, _, point, axis, _, _) in enumerate(rows):
-                motions = spec.bodies[b].motions
-                self.w_still[r, k] = still_under(motions[r if len(motions) > 1 else 0], kind, point, axis)
+                self.w_still[r, k] = still_under(spec.bodies[b].motion(r), kind, point, axis)
         self._build_meshes(spec, np.array(tris).reshape(-1, 3, 3), tri_body, tri_mat, meshes)
 
     def _build_meshes(self, spec, tris, tri_body, tri_mat, meshes) -> None:
