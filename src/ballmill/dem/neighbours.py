@@ -9,7 +9,7 @@ thread scheduling nor on the skin or when the list was rebuilt: identical bits. 
 per particle marks the slots whose contact is open, so the pair loop and the gather read a
 slot's records only for an open contact.  A slot has two records of 48 B: its history, which
 only the pair loop reads, and the force and torque the pair loop leaves for the gather, so
-the gather reads one of them, not both (100,000 balls +15 %, the 8,640-ball drum +1.5 %,
+the gather reads one of them, not both (100,000 balls +16 %, the 8,640-ball drum +1.5 %,
 against one record of 96 B).  Records are stored slot by slot (slot s of i beside slot s of
 i + 1), so a step's reads of them lie close together (layout.py).  Each particle also lists
 the slots (j, s) of the lower partners that hold it, the reverse list.
