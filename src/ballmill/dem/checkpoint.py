@@ -25,9 +25,10 @@ from ..files import write_atomic
 log = logging.getLogger(__name__)
 META = "__meta__"
 # the engine's field layout: 2 = fields sized by the particle capacity (particles.capacity), 3 =
-# the same with each particle's wall-contact slots sized by the walls (walls.wall_slots); a state
-# of another layout is not restored (the run starts afresh)
-LAYOUT = 3
+# the same with each particle's wall-contact slots sized by the walls (walls.wall_slots), 4 = the
+# same with an open contact's records its own, not its list slot's (neighbours.py); a state of
+# another layout is not restored (the run starts afresh)
+LAYOUT = 4
 
 
 def encode(obj, arrays: list[np.ndarray]):

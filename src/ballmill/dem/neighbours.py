@@ -1,18 +1,23 @@
 """Verlet neighbour list with a skin, found through a cell grid or all pairs of a replica.
 
 Half list: particle i holds the partners j > i whose centres were closer than
-r_i + r_j + skin when the list was built, with the contact history of each pair in the
-same slot (tangential spring, collision start step, impact speed, energy dissipated), and
-the force and torques of the pair, written there by `pairs.py` and gathered per particle
-in slot order (`gather`).  Partners are kept in id order, so the sums depend neither on
+r_i + r_j + skin when the list was built, in slots; the pair loop (`pairs.py`) sums i's
+contacts with them in slot order and the gather (`gather`) adds, per particle, what its
+lower partners left for it.  Partners are kept in id order, so the sums depend neither on
 thread scheduling nor on the skin or when the list was rebuilt: identical bits.  A bit mask
-per particle marks the slots whose contact is open, so the pair loop and the gather read a
-slot's records only for an open contact.  A slot has two records of 48 B: its history, which
-only the pair loop reads, and the force and torque the pair loop leaves for the gather, so
-the gather reads one of them, not both (100,000 balls +16 %, the 8,640-ball drum +1.5 %,
-against one record of 96 B).  Records are stored slot by slot (slot s of i beside slot s of
-i + 1), so a step's reads of them lie close together (layout.py).  Each particle also lists
-the slots (j, s) of the lower partners that hold it, the reverse list.
+per particle marks the slots whose contact is open, so the pair loop and the gather read
+records only for open contacts.
+
+An open contact has two records of 48 B: its history (collision start step, tangential
+spring, impact speed, energy dissipated), which only the pair loop reads, and the force on
+i and torque on j that the pair loop leaves for the gather, so the gather reads one of them,
+not both (100,000 balls +16 %, against one record of 96 B).  The records belong to the
+contact, not to the slot: a contact that opens takes the lowest record free in i's row and
+keeps it until it ends, and each slot names its contact's record (`rec`).  So a ball's
+records in use are its first few, whatever slots its contacts hold, and are stored record
+by record (record r of i beside record r of i + 1, layout.py): a step's reads of them lie
+close together.  A rebuild renumbers slots, not records.  Each particle also lists the
+slots (j, s) of the lower partners that hold it, the reverse list.
 
 The list stays valid while no particle has moved more than skin / 2 from where it was at
 the build: at the end of every step each particle checks where its next drift will take
@@ -47,7 +52,7 @@ class NeighbourList:
     # what a saved run keeps: the list and each pair's history (a rebuild carries it over) and the
     # rebuild count; the rest is rebuilt (a restore marks the list due) or recomputed by the next
     # step's pair loop
-    STATE = ("nb_n", "nb_j", "start", "xi", "vn0", "ed", "f", "builds")
+    STATE = ("nb_n", "nb_j", "open", "used", "rec", "start", "xi", "vn0", "ed", "f", "builds")
 
     def __init__(self, spec, particles, monitor, walls, capacity: int, skin_m: float, use_grid: bool,
                  parallel_binning: bool | None = None):
@@ -64,10 +69,13 @@ class NeighbourList:
         self.rv_n = ti.field(ti.i32, cap)
         self.rv_slot = ti.field(ti.i32, (cap, k))  # j * capacity + s of the lower partner's slot
         self.nb_j = ti.field(ti.i32, (cap, k))
-        # bit s set: slot s is an open contact (a pair loop or gather reads no closed slot's record)
-        self.open = ti.field(ti.u64, cap)
-        # two records per slot: the pair's history (start = -1: not in contact); per open contact
-        # the force on i (kept to the next step, history too) and the torque on j (the gather's)
+        # bit s of open: slot s is an open contact, whose records are rec[i, s]; bit r of used:
+        # record r is an open contact's (a pair loop or gather reads no other record)
+        self.open, self.used = ti.field(ti.u64), ti.field(ti.u64)
+        records(cap, self.open, self.used)
+        self.rec = ti.field(ti.u8, (cap, k))
+        # two records per open contact: its history, and the force on i (kept to the next step,
+        # history too) and the torque on j (the gather's)
         self.start, self.vn0, self.ed = ti.field(ti.i32), ti.field(float), ti.field(float)
         self.f, self.t_j, self.xi = ti.Vector.field(3, float), ti.Vector.field(3, float), ti.Vector.field(3, float)
         records((cap, k), self.start, self.xi, self.vn0, self.ed, slot_major=True)
@@ -183,14 +191,8 @@ class NeighbourList:
         return s, found
 
     @ti.func
-    def move_record(self, i, s, c):
-        """The record of slot s of i's list (history, kept force) into slot c."""
-        self.start[i, c], self.xi[i, c], self.vn0[i, c] = self.start[i, s], self.xi[i, s], self.vn0[i, s]
-        self.ed[i, c], self.f[i, c] = self.ed[i, s], self.f[i, s]
-
-    @ti.func
     def build_particle(self, i):
-        """New list of i (partners in id order), history carried over by partner id."""
+        """New list of i (partners in id order), open contacts carried over by partner id."""
         cnt, low = 0, 0
         r = self.p.rep[i]
         if ti.static(self.use_grid):
@@ -210,31 +212,28 @@ class NeighbourList:
         # partners in id order: forces are summed in the same order whatever the skin
         self.sort_row(self.new_j, i, cnt)
         self.sort_row(self.rv_slot, i, low)
-        # each kept pair's record moves in place from its old slot to its new one.  Both lists are in
-        # partner order, so kept pairs keep their order: those moving down are moved lowest first,
-        # then those moving up highest first, and no record is overwritten before it is read
-        n_old = self.nb_n[i]
-        s, kept = 0, ti.u64(0)  # bit c: new slot c holds a pair of the old list
+        # each open contact (within the cut-off, so in the new list) moves in place from its old slot
+        # to its new one, with the name of its records, which stay where they are.  Both lists are
+        # in partner order, so kept pairs keep their order: those moving down are moved lowest
+        # first, then those moving up highest first, and no name is overwritten before it is read
+        n_old, was_open = self.nb_n[i], self.open[i]
+        s, open_ = 0, ti.u64(0)
         for c in range(cnt):
             s, found = self.old_slot(i, s, 1, n_old, self.new_j[i, c])
-            if found:
-                kept |= bit(c)
-                if s > c:
-                    self.move_record(i, s, c)
+            if found:  # (s is a slot only then: no bit of a slot past the row)
+                if was_open & bit(s):
+                    open_ |= bit(c)
+                    if s > c:
+                        self.rec[i, c] = self.rec[i, s]
         s = n_old - 1
         for m in range(cnt):
             c = cnt - 1 - m
             s, found = self.old_slot(i, s, -1, n_old, self.new_j[i, c])
             if found and s < c:
-                self.move_record(i, s, c)
-        open_ = ti.u64(0)
+                if was_open & bit(s):
+                    self.rec[i, c] = self.rec[i, s]
         for c in range(cnt):
             self.nb_j[i, c] = self.new_j[i, c]
-            if (kept & bit(c)) == 0:  # a new pair: a fresh record
-                self.start[i, c], self.vn0[i, c], self.ed[i, c] = -1, 0.0, 0.0
-                self.xi[i, c], self.f[i, c] = ti.Vector([0.0, 0.0, 0.0]), ti.Vector([0.0, 0.0, 0.0])
-            if self.start[i, c] >= 0:
-                open_ |= bit(c)
         self.nb_n[i], self.rv_n[i], self.open[i] = cnt, low, open_
         self.x_ref[i] = self.p.x[i]
         self.walls.mark_within_reach(i, self.skin)
@@ -317,9 +316,24 @@ class NeighbourList:
             if slot >= 0:  # always, unless j's list overflowed (then the run stops)
                 j, s = slot // self.k_max, slot % self.k_max
                 if self.open[j] & bit(s):
-                    f -= self.f[j, s]
-                    t += self.t_j[j, s]
+                    r = self.record(j, s)
+                    f -= self.f[j, r]
+                    t += self.t_j[j, r]
         return f, t
+
+    @ti.func
+    def record(self, i, s):
+        """Where the records of the open contact in slot s of i's list are: (i, record)."""
+        return ti.cast(self.rec[i, s], ti.i32)
+
+    @ti.func
+    def take_record(self, i, s, used):
+        """A contact opens in slot s of i: the lowest record not in `used` is its; returns the record
+        and the new `used` (a free record exists: i has fewer open contacts than slots)."""
+        free = ~used
+        r = ti.cast(ti.math.popcnt((free & (~free + ti.u64(1))) - ti.u64(1)), ti.i32)
+        self.rec[i, s] = ti.cast(r, ti.u8)
+        return r, used | bit(r)
 
     @ti.func
     def watch(self, i):
@@ -335,8 +349,8 @@ class NeighbourList:
     def open_slots(self) -> np.ndarray:
         """(n, capacity) mask of the list slots whose pair is in contact now."""
         n = self.p.n
-        used = np.arange(self.k_max)[None, :] < self.nb_n.to_numpy()[:n, None]
-        return used & (self.start.to_numpy()[:n] >= 0)
+        bits = np.uint64(1) << np.arange(self.k_max, dtype=np.uint64)
+        return (self.open.to_numpy()[:n, None] & bits[None, :]) != 0
 
     def contact_pairs(self) -> int:
         """Pairs in contact now."""

@@ -9,8 +9,8 @@ from .neighbours import bit
 @ti.data_oriented
 class PairContacts:
     """Sums the contacts of i with its partners j > i, in slot order, for i; writes what j
-    needs (force on i, torque on j) into the pair's list slot, valid while the contact is
-    open (start >= 0); keeps each pair's history in its slot."""
+    needs (force on i, torque on j) and the contact's history into the open contact's records
+    (neighbours.py)."""
 
     def __init__(self, particles, tables, nlist, monitor, book, collision_log: bool):
         self.p, self.tables, self.nl, self.monitor, self.book = particles, tables, nlist, monitor, book
@@ -24,7 +24,7 @@ class PairContacts:
         dt = p.dt[None]
         f_i, t_i = zero, zero
         energy = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])  # normal, tangential, rolling (W); Hertz, spring (J)
-        open_ = nl.open[i]
+        open_, used = nl.open[i], nl.used[i]
         for s in range(nl.nb_n[i]):
             j = nl.nb_j[i, s]
             d = p.x[j] - p.x[i]
@@ -37,8 +37,12 @@ class PairContacts:
                 ca, cb = p.rad[i] - 0.5 * delta, p.rad[j] - 0.5 * delta
                 v_rel = p.v[i] + p.w[i].cross(ca * n) - p.v[j] + p.w[j].cross(cb * n)
                 start, xi, vn0, ed, f_then = k, zero, v_rel.dot(n), 0.0, zero  # a new contact
+                c = 0  # its records
                 if open_ & bit(s):
-                    start, xi, vn0, ed, f_then = nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s], nl.f[i, s]
+                    c = nl.record(i, s)
+                    start, xi, vn0, ed, f_then = nl.start[i, c], nl.xi[i, c], nl.vn0[i, c], nl.ed[i, c], nl.f[i, c]
+                else:
+                    c, used = nl.take_record(i, s, used)
                 open_ |= bit(s)
                 r, ma, mb = p.rep[i], p.mat[i], p.mat[j]
                 m_eff = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j])
@@ -52,17 +56,18 @@ class PairContacts:
                 e = absorbed_power(f_then, f_now, n, v_rel)
                 energy += ti.Vector([e[0], e[1], loss_r, stored[0], stored[1]])
                 self.monitor.overlap(delta / ti.min(p.rad[i], p.rad[j]))
-                nl.start[i, s], nl.xi[i, s], nl.vn0[i, s], nl.ed[i, s] = start, xi, vn0, ed + (e[0] + e[1] + loss_r) * dt
-                nl.f[i, s] = f_now
+                nl.start[i, c], nl.xi[i, c], nl.vn0[i, c], nl.ed[i, c] = start, xi, vn0, ed + (e[0] + e[1] + loss_r) * dt
+                nl.f[i, c] = f_now
                 f_i += f_now
                 t_i += (ca * n).cross(ft) + roll_a
-                nl.t_j[i, s] = (cb * n).cross(ft) + roll_b
-            elif open_ & bit(s):  # the contact ended at this step
+                nl.t_j[i, c] = (cb * n).cross(ft) + roll_b
+            elif open_ & bit(s):  # the contact ended at this step: its records are free
+                c = nl.record(i, s)
                 if ti.static(self.collision_log):
-                    self.monitor.collision(i, j, nl.start[i, s], k, nl.vn0[i, s], nl.ed[i, s])
-                nl.start[i, s] = -1
+                    self.monitor.collision(i, j, nl.start[i, c], k, nl.vn0[i, c], nl.ed[i, c])
                 open_ ^= bit(s)
-        nl.open[i] = open_
+                used ^= bit(c)
+        nl.open[i], nl.used[i] = open_, used
         nl.f_own[i], nl.t_own[i] = f_i, t_i
         self.book.add(i, 0.0, energy[0], energy[1], energy[2])
         self.book.hold(i, energy[3], energy[4], self.book.elastic_pairs, self.book.spring_pairs)
