@@ -220,7 +220,8 @@ class NeighbourList:
         s, open_ = 0, ti.u64(0)
         for c in range(cnt):
             s, found = self.old_slot(i, s, 1, n_old, self.new_j[i, c])
-            if found:  # (s is a slot only then: no bit of a slot past the row)
+            # Taichi evaluates both sides of `and`: bit(s) only once s is a slot of the row
+            if found:  # noqa: SIM102
                 if was_open & bit(s):
                     open_ |= bit(c)
                     if s > c:
@@ -229,7 +230,7 @@ class NeighbourList:
         for m in range(cnt):
             c = cnt - 1 - m
             s, found = self.old_slot(i, s, -1, n_old, self.new_j[i, c])
-            if found and s < c:
+            if found and s < c:  # noqa: SIM102 (as above)
                 if was_open & bit(s):
                     self.rec[i, c] = self.rec[i, s]
         for c in range(cnt):
