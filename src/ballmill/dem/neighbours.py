@@ -49,9 +49,9 @@ def bit(s):
 class NeighbourList:
     """Candidate pairs and their per-pair history and force slots (capacity per particle)."""
 
-    # what a saved run keeps: the list and each pair's history (a rebuild carries it over) and the
-    # rebuild count; the rest is rebuilt (a restore marks the list due) or recomputed by the next
-    # step's pair loop
+    # what a saved run keeps: the list, its open contacts and their records (a rebuild carries them
+    # over) and the rebuild count; the rest is rebuilt (a restore marks the list due) or recomputed
+    # by the next step's pair loop
     STATE = ("nb_n", "nb_j", "open", "used", "rec", "start", "xi", "vn0", "ed", "f", "builds")
 
     def __init__(self, spec, particles, monitor, walls, capacity: int, skin_m: float, use_grid: bool,
