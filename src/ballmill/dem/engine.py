@@ -63,8 +63,8 @@ BATCHES_PER_THREAD = 4
 # and the 4 B mask of walls within reach added since, and 32 B per buffered collision; from the
 # fields' sizes, 109 B per neighbour-list slot (partner, reverse slot, the name of its contact's
 # records, a contact's records of history and of force and torque, 48 B each with padding, and
-# a rebuild's new partner: 4+4+1+96+4) and 144 B per
-# wall-contact slot (key, history and force, double buffered: 2 x (4+4+8+8+24+24)).
+# a rebuild's new partner: 4+4+1+96+4) and 144 B per wall-contact slot (key, history and force,
+# double buffered: 2 x (4+4+8+8+24+24)).
 PARTICLE_BYTES, PAIR_SLOT_BYTES, WALL_SLOT_BYTES, EVENT_BYTES = 549, 109, 144, 32
 DRIFT, POSE, PAIRS, FINISH = 1, 2, 4, 8  # phases of a step
 BUILD, LINK = 16, 32  # phases of a neighbour-list rebuild

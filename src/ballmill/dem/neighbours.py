@@ -47,7 +47,7 @@ def bit(s):
 
 @ti.data_oriented
 class NeighbourList:
-    """Candidate pairs and their per-pair history and force slots (capacity per particle)."""
+    """Candidate pairs in slots (capacity per particle) and the records of their open contacts."""
 
     # what a saved run keeps: the list, its open contacts and their records (a rebuild carries them
     # over) and the rebuild count; the rest is rebuilt (a restore marks the list due) or recomputed
