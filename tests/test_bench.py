@@ -3,7 +3,8 @@
 import math
 import os
 
-from ballmill.bench import core_balance, machine
+from ballmill.bench import core_balance, machine, peer_names
+from ballmill.cli import compose_command
 
 
 def test_core_balance_is_the_slowest_cores_speed_over_the_fastests_and_nan_on_one_core():
@@ -22,3 +23,11 @@ def test_the_figures_name_the_machine_they_come_from():
     assert here["cpu"] and here["cores"] == len(os.sched_getaffinity(0))
     if os.path.isdir("/sys/devices/system/cpu/cpu0/cache"):  # Linux: every data cache level, in bytes
         assert here["L1_bytes"] >= 4096 and here["L2_bytes"] > here["L1_bytes"]
+
+
+def test_both_peers_are_asked_for_as_both_or_by_name():
+    for asked in ("peer=both", "peer=liggghts,lammps"):
+        opts = compose_command("bench", [asked])
+        assert peer_names(opts.peer) == ("liggghts", "lammps")
+    assert peer_names(compose_command("bench", ["peer=lammps"]).peer) == ("lammps",)
+    assert compose_command("bench", ["cases=[8640,bpr19]"]).cases == ["8640", "bpr19"]  # a list stays a list

@@ -16,7 +16,7 @@ reason (`one_thread_share`, dem/team.py).
 Figures are printed as a table and written as JSON (`json=PATH`) with the machine they were
 measured on (CPU model and cache sizes: whether a bed fits in the last-level cache decides
 how the rate holds up with size); `peer=liggghts`, `lammps` or
-`both` runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
+`both` (= `liggghts,lammps`) runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
 
 `mm400=true`: the MM400 batch instead, a 10 x 10 grid of ball-wall restitution x friction, one
 17.6 mm ball per jar at 25 Hz, 2 s each, all replicas in one launch.
@@ -162,8 +162,8 @@ def _cell(value) -> str:
 
 
 def peer_names(peer: str | None) -> tuple[str, ...]:
-    """bench's peer option: one peer, or both."""
-    return () if peer is None else tuple(PEERS) if peer == "both" else (peer,)
+    """bench's peer option: one peer, or both (`both` or `liggghts,lammps`)."""
+    return () if peer is None else tuple(PEERS) if peer == "both" else tuple(peer.split(","))
 
 
 def bench_mm400(threads: int, duration_s: float) -> dict:

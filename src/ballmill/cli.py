@@ -225,7 +225,16 @@ def compose_command(name: str, overrides: list[str]) -> DictConfig:
         if "=" not in arg:
             example = {"report": "sweeps=[{}]", "track": "video={}", "calibrate": "videos={}"}.get(name, "key={}")
             raise ConfigError(f"{arg!r} is not key=value: options are Hydra overrides, e.g. {example.format(arg)}")
-    return compose(name, overrides)
+    return compose(name, [one_value(arg) for arg in overrides])
+
+
+def one_value(override: str) -> str:
+    """key=a,b as the one string 'a,b': a command other than `run` sweeps nothing, so Hydra's
+    reading of the comma (a sweep over a and b) cannot be meant; lists are written [a,b]."""
+    key, value = override.split("=", 1)
+    if "," in value and value[0] not in "[{'\"" and "${" not in value:
+        return f"{key}='{value}'"
+    return override
 
 
 def run_command(args: list[str]) -> None:

@@ -548,8 +548,9 @@ class BenchConfig:
     profile_steps: int = rng(50, 1, None)
     mm400: bool = field(default=False, metadata={"doc": "the MM400 10 x 10 grid instead of the drum"})
     mm400_duration_s: float = rng(2.0, 0.0, None, lo_open=True, doc="simulated time per MM400 replica (s)")
-    peer: str | None = field(default=None, metadata={"choices": (None, "liggghts", "lammps", "both"), "doc":
-                                                     "run the same drums in LIGGGHTS, LAMMPS or both (1 and 2 ranks)"})
+    peer: str | None = field(default=None, metadata={"choices": (None, "liggghts", "lammps", "liggghts,lammps", "both"),
+                                                     "doc": "run the same drums in LIGGGHTS, LAMMPS or both (1 and 2 "
+                                                            "ranks; both = liggghts,lammps)"})
     rounds: int = rng(1, 1, None, doc="every run (ours, then the peers') repeated one after the other: medians "
                                       "of the rates and of the ratios taken within each round")
     json: str = field(default="outputs/bench/bench.json", metadata={"doc": "where the figures are written"})
