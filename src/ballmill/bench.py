@@ -15,8 +15,8 @@ rate) and the share of the timed steps that the team's pacer gave to one thread 
 reason (`one_thread_share`, dem/team.py).
 Figures are printed as a table and written as JSON (`json=PATH`) with the machine they were
 measured on (CPU model and cache sizes: whether a bed fits in the last-level cache decides
-how the rate holds up with size); `peer=liggghts`, `lammps` or
-`both` (= `liggghts,lammps`) runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
+how the rate holds up with size); `peer=liggghts`, `lammps` or `both` (= `liggghts,lammps`)
+runs the same drums in the peers (1 and 2 MPI ranks) right after ours and adds the ratios.
 
 `mm400=true`: the MM400 batch instead, a 10 x 10 grid of ball-wall restitution x friction, one
 17.6 mm ball per jar at 25 Hz, 2 s each, all replicas in one launch.

@@ -233,7 +233,8 @@ def one_value(override: str) -> str:
     reading of the comma (a sweep over a and b) cannot be meant; lists are written [a,b]."""
     key, value = override.split("=", 1)
     if "," in value and value[0] not in "[{'\"" and "${" not in value:
-        return f"{key}='{value}'"
+        quoted = value.replace("'", "\\'")
+        return f"{key}='{quoted}'"
     return override
 
 
