@@ -51,8 +51,8 @@ log = logging.getLogger(__name__)
 # balls) test all pairs, which for a handful of balls costs less than binning them.
 GRID_MIN_PARTICLES = 8
 # Below this many particles a CPU runs whole steps serially in one launch; from it on, a team of
-# threads does (a team's barriers cost ~0.1-0.2 us; 2 threads against 1: 1.14x at 523 balls,
-# 1.4x at 1,000, 2.1x at 8,640).  A parallel loop costs ~70 us to dispatch on this machine.
+# threads does (a team's barriers cost ~0.1-0.2 us; 2 threads against 1: 1.1-1.2x at 523 balls,
+# 1.6x at 1,000, 1.9x at 8,640).  A parallel loop costs ~70 us to dispatch on this machine.
 TEAM_MIN_PARTICLES = 500
 LAUNCHES = ("serial", "team", "parallel")
 # A serial launch's replicas are shared by the threads in this many runs per thread (a calibration
