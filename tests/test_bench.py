@@ -3,8 +3,9 @@
 import math
 import os
 
-from ballmill.bench import core_balance, machine, peer_names
+from ballmill.bench import REFERENCE, case_drum, core_balance, machine, peer_names
 from ballmill.cli import compose_command
+from ballmill.drum import ball_count
 
 
 def test_core_balance_is_the_slowest_cores_speed_over_the_fastests_and_nan_on_one_core():
@@ -31,3 +32,11 @@ def test_both_peers_are_asked_for_as_both_or_by_name():
         assert peer_names(opts.peer) == ("liggghts", "lammps")
     assert peer_names(compose_command("bench", ["peer=lammps"]).peer) == ("lammps",)
     assert compose_command("bench", ["cases=[8640,bpr19]"]).cases == ["8640", "bpr19"]  # a list stays a list
+
+
+def test_a_long_case_holds_its_balls_in_the_reference_drums_cross_section():
+    scaled, long = case_drum("100000")[0], case_drum("long100000")[0]
+    assert ball_count(scaled) == ball_count(long) == 100_000
+    assert long.inner_diameter_m == REFERENCE.inner_diameter_m  # as deep a bed as the reference's
+    assert scaled.inner_diameter_m / REFERENCE.inner_diameter_m == scaled.inner_length_m / REFERENCE.inner_length_m
+    assert math.isclose(long.inner_length_m, 2.315, rel_tol=1e-3)

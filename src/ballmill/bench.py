@@ -3,9 +3,12 @@
 Reference: inner D 0.4 m, L 0.2 m, flat smooth ends, 10 mm steel balls filling 30 % of the
 volume at bed porosity 0.4 (~8,600 balls), 70 % of critical speed, E = 2e8 Pa, v 0.3,
 rho 7900, e 0.5, mu 0.5, mu_r 0.01, dt 20 % of Rayleigh; settle, then rotate.
-Other sizes scale D and L by (N / 8600)^(1/3).  `bpr19` is the paper's mill at BPR 19 instead:
+Other sizes scale D and L by (N / 8600)^(1/3), so a larger bed is also deeper; `longN` keeps
+the reference's cross-section and makes the drum longer to hold N balls, so the bed is as deep
+as the reference's and a ball has as many neighbours: what size alone costs.  `bpr19` is the
+paper's mill at BPR 19 instead:
 D 1.743 m, L 2.614 m, 523 balls of 160 mm, 15 rpm, physical steel (G 77 GPa), dt 1.74e-5 s.
-Cases of `large_from` balls or more (the 100,000-ball drum) are timed over shorter
+Cases of `large_from` balls or more (the 100,000-ball drums) are timed over shorter
 `large_settle_s` / `large_rotate_s`.  The `scaling` cases run on one thread as well (thread
 scaling); each row carries the launch used, the memory the engine took per particle and the
 share of each phase of a step (`Engine.profile`), the cores' balance measured just before
@@ -26,6 +29,7 @@ from __future__ import annotations
 
 import os
 import platform
+import re
 import resource
 import subprocess
 import sys
@@ -49,19 +53,40 @@ PAIRS = {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}
 BPR19 = DrumConfig(inner_diameter_m=1.743, inner_length_m=2.614, ball_radius_m=0.08, ball_count=523, speed_rpm=15.0)
 
 
-def scaled_drum(n_balls: int) -> DrumConfig:
-    k = (n_balls / ball_count(REFERENCE)) ** (1 / 3)
-    return replace(REFERENCE, inner_diameter_m=0.4 * k, inner_length_m=0.2 * k)
+CASE = re.compile(r"(long)?([0-9]+)")  # a ball count N of the scaled drum, or longN
+
+
+def case_balls(case: str) -> int:
+    """The ball count a drum case asks for (bpr19: its 523); ConfigError for a case that is none."""
+    if case == "bpr19":
+        return BPR19.ball_count
+    match = CASE.fullmatch(case)
+    if not match or int(match[2]) < 2:
+        raise ConfigError(f"cases: {case!r} is neither a ball count (an integer >= 2), longN nor bpr19")
+    return int(match[2])
+
+
+def case_drum(case: str) -> tuple[DrumConfig, MaterialConfig]:
+    """The drum and ball material of a case: bpr19; N, the reference scaled in D and L to hold N
+    balls; longN, the reference's cross-section made longer to hold N balls."""
+    if case == "bpr19":
+        return BPR19, MaterialConfig()
+    k = case_balls(case) / ball_count(REFERENCE)
+    if case.startswith("long"):
+        return replace(REFERENCE, inner_length_m=REFERENCE.inner_length_m * k), STEEL_E2E8
+    k **= 1 / 3
+    return replace(REFERENCE, inner_diameter_m=REFERENCE.inner_diameter_m * k,
+                   inner_length_m=REFERENCE.inner_length_m * k), STEEL_E2E8
 
 
 def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, profile_steps: int,
           precision: str = "f64", skin: float = 0.5, peer: str | None = None, scaling: bool = False,
           rounds: int = 1) -> dict:
-    """Throughput of one drum case: a ball count (the scaled reference drum) or 'bpr19'; with
+    """Throughput of one drum case (`case_drum`); with
     `scaling`, the same run on one thread as well.  `rounds` repeats every run (ours, then the
     peers') one after the other: rates and ratios are medians over the rounds, each ratio taken
     within its round (this machine's speed drifts over minutes)."""
-    drum, material = (BPR19, MaterialConfig()) if case == "bpr19" else (scaled_drum(int(case)), STEEL_E2E8)
+    drum, material = case_drum(case)
     sim = SimConfig(arch=arch, threads=threads, precision=precision, settle_s=settle_s, duration_s=rotate_s,
                     sample_every_s=min(0.05, rotate_s / 2), neighbour_skin=skin, max_overlap_fraction=0.1)
     spec = drum_spec(drum, {"steel": material}, PAIRS, sim)
@@ -181,16 +206,14 @@ def bench_mm400(threads: int, duration_s: float) -> dict:
 
 def main(opts: BenchConfig) -> None:
     """Run the cases of `ballmill bench`, print a table and write opts.json."""
-    for case in opts.cases:
-        if case != "bpr19" and not (case.isdigit() and int(case) >= 2):
-            raise ConfigError(f"cases: {case!r} is neither a ball count (an integer >= 2) nor bpr19")
+    balls = {case: case_balls(case) for case in opts.cases}
     require_peers(peer_names(opts.peer))  # before our own runs, not after
     if opts.mm400:
         rows = [bench_mm400(opts.threads, opts.mm400_duration_s)]
     else:
         rows = []
         for c in opts.cases:
-            large = c != "bpr19" and int(c) >= opts.large_from
+            large = balls[c] >= opts.large_from
             times = (opts.large_settle_s, opts.large_rotate_s) if large else (opts.settle_s, opts.rotate_s)
             rows.append(bench(c, opts.arch, opts.threads, *times, opts.profile_steps, opts.precision, opts.skin,
                               opts.peer, scaling=c in opts.scaling, rounds=opts.rounds))

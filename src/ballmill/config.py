@@ -532,8 +532,9 @@ class ReportConfig:
 class BenchConfig:
     """`ballmill bench`: DEM throughput (particle-steps/s) on the reference drum."""
 
-    cases: list[str] = field(default_factory=lambda: ["1000", "8640", "bpr19", "100000"],
-                              metadata={"doc": "ball counts of the scaled reference drum, or bpr19"})
+    cases: list[str] = field(default_factory=lambda: ["1000", "8640", "bpr19", "100000", "long100000"],
+                              metadata={"doc": "ball counts N of the scaled reference drum, longN (its "
+                                               "cross-section, longer), or bpr19"})
     scaling: list[str] = field(default_factory=lambda: ["8640"],
                                metadata={"doc": "cases also run on one thread (thread scaling)"})
     arch: str = field(default="cpu", metadata={"choices": ("cpu", "cuda")})
