@@ -60,12 +60,13 @@ LAUNCHES = ("serial", "team", "parallel")
 BATCHES_PER_THREAD = 4
 # Memory of the engine's fields (f64), measured on a 3,645-ball drum: 525 B per particle, plus the
 # 4 B that pad a partner's record to 96 B, the 8 B masks of open contacts and of records in use
-# and the 4 B mask of walls within reach added since, and 32 B per buffered collision; from the
+# and the 4 B mask of walls within reach added since, less the 48 B of the own list's sums (now
+# in the particle's force and torque), and 32 B per buffered collision; from the
 # fields' sizes, 109 B per neighbour-list slot (partner, reverse slot, the name of its contact's
 # records, a contact's records of history and of force and torque, 48 B each with padding, and
 # a rebuild's new partner: 4+4+1+96+4) and 144 B per wall-contact slot (key, history and force,
 # double buffered: 2 x (4+4+8+8+24+24)).
-PARTICLE_BYTES, PAIR_SLOT_BYTES, WALL_SLOT_BYTES, EVENT_BYTES = 549, 109, 144, 32
+PARTICLE_BYTES, PAIR_SLOT_BYTES, WALL_SLOT_BYTES, EVENT_BYTES = 501, 109, 144, 32
 DRIFT, POSE, PAIRS, FINISH = 1, 2, 4, 8  # phases of a step
 BUILD, LINK = 16, 32  # phases of a neighbour-list rebuild
 STEP = DRIFT | POSE | PAIRS | FINISH

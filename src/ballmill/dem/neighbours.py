@@ -80,9 +80,6 @@ class NeighbourList:
         self.f, self.t_j, self.xi = ti.Vector.field(3, float), ti.Vector.field(3, float), ti.Vector.field(3, float)
         records((cap, k), self.start, self.xi, self.vn0, self.ed, slot_major=True)
         records((cap, k), self.f, self.t_j, slot_major=True)
-        # per particle: sums over its own list
-        self.f_own, self.t_own = ti.Vector.field(3, float), ti.Vector.field(3, float)
-        records(cap, self.f_own, self.t_own)
         # scratch for a rebuild: the new partners of i before they replace the old ones
         self.new_j = ti.field(ti.i32, (cap, k))
         self.x_ref = ti.Vector.field(3, float, cap)
@@ -309,9 +306,9 @@ class NeighbourList:
     # ------------------------------------------------------------------ per step
     @ti.func
     def gather(self, i):
-        """Forces and torques of i's open contacts: its own list's sum, then the lower
-        partners' slots in id order (N, N m)."""
-        f, t = self.f_own[i], self.t_own[i]
+        """Forces and torques of i's open contacts: its own list's sum (which the pair loop left in
+        i's force and torque), then the lower partners' slots in id order (N, N m)."""
+        f, t = self.p.f[i], self.p.tq[i]
         for q in range(self.rv_n[i]):
             slot = self.rv_slot[i, q]
             if slot >= 0:  # always, unless j's list overflowed (then the run stops)

@@ -8,9 +8,9 @@ from .neighbours import bit
 
 @ti.data_oriented
 class PairContacts:
-    """Sums the contacts of i with its partners j > i, in slot order, for i; writes what j
-    needs (force on i, torque on j) and the contact's history into the open contact's records
-    (neighbours.py)."""
+    """Sums the contacts of i with its partners j > i, in slot order, into i's force and torque
+    (the step's end adds the rest: engine.finish); writes what j needs (force on i, torque on j)
+    and the contact's history into the open contact's records (neighbours.py)."""
 
     def __init__(self, particles, tables, nlist, monitor, book, collision_log: bool):
         self.p, self.tables, self.nl, self.monitor, self.book = particles, tables, nlist, monitor, book
@@ -68,6 +68,6 @@ class PairContacts:
                 open_ ^= bit(s)
                 used ^= bit(c)
         nl.open[i], nl.used[i] = open_, used
-        nl.f_own[i], nl.t_own[i] = f_i, t_i
+        p.f[i], p.tq[i] = f_i, t_i  # the gather adds the rest: no separate record to stream
         self.book.add(i, 0.0, energy[0], energy[1], energy[2])
         self.book.hold(i, energy[3], energy[4], self.book.elastic_pairs, self.book.spring_pairs)
