@@ -229,6 +229,7 @@ OTHERS = [
     (["calibrate", "videos=x", "restitutions=[0.5,1.5]"], r"restitutions\[1\]=1.5 is outside .*\(0.0, 1.0\]"),
     (["bench", "cases=[0]"], r"cases: '0' is neither a ball count \(an integer >= 2\), longN nor bpr19"),
     (["bench", "cases=[big]"], r"cases: 'big' is neither a ball count"),
+    (["bench", "cases=[long700]"], r"cases: 'long700': .*balls of 0.01 m do not fit a drum of D 0.4 m x L 0.0162"),
     (["bench", "peer=gromacs"], r"peer='gromacs' is not one of \[None, 'liggghts', 'lammps', 'liggghts,lammps', 'both'\]"),
     (["bench", "mm400=true", "mm400_duration_s=0"], r"mm400_duration_s=0.0 is outside the allowed range \(0.0, inf\]"),
     (["surrogate", "points=60"], r"points=60: a Sobol design needs a power of two"),

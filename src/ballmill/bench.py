@@ -66,6 +66,16 @@ def case_balls(case: str) -> int:
     return int(match[2])
 
 
+def checked_case(case: str) -> int:
+    """The case's ball count, once its drum is known to hold them (else a ConfigError naming it)."""
+    drum, material = case_drum(case)
+    try:
+        drum_spec(drum, {"steel": material}, PAIRS, SimConfig())
+    except ConfigError as exc:
+        raise ConfigError(f"cases: {case!r}: {exc}") from None
+    return case_balls(case)
+
+
 def case_drum(case: str) -> tuple[DrumConfig, MaterialConfig]:
     """The drum and ball material of a case: bpr19; N, the reference scaled in D and L to hold N
     balls; longN, the reference's cross-section made longer to hold N balls."""
@@ -206,21 +216,22 @@ def bench_mm400(threads: int, duration_s: float) -> dict:
 
 def main(opts: BenchConfig) -> None:
     """Run the cases of `ballmill bench`, print a table and write opts.json."""
-    balls = {case: case_balls(case) for case in opts.cases}
+    balls = {case: checked_case(case) for case in opts.cases}  # every case before any run
     require_peers(peer_names(opts.peer))  # before our own runs, not after
+    here, rows = machine(), []
     if opts.mm400:
-        rows = [bench_mm400(opts.threads, opts.mm400_duration_s)]
+        rows.append(bench_mm400(opts.threads, opts.mm400_duration_s))
     else:
-        rows = []
         for c in opts.cases:
             large = balls[c] >= opts.large_from
             times = (opts.large_settle_s, opts.large_rotate_s) if large else (opts.settle_s, opts.rotate_s)
             rows.append(bench(c, opts.arch, opts.threads, *times, opts.profile_steps, opts.precision, opts.skin,
                               opts.peer, scaling=c in opts.scaling, rounds=opts.rounds))
+            # after each case, so that a case that fails later loses none of those before
+            write_json(opts.json, {"options": asdict(opts), "machine": here, "rows": rows, "complete": False})
     keys = list(dict.fromkeys(k for r in rows for k in r))
     print("\n" + " | ".join(keys))
     for r in rows:
         print(" | ".join(_cell(r.get(k, "")) for k in keys))
-    here = machine()
     print("machine: " + ", ".join(f"{k} {v}" for k, v in here.items()))
-    write_json(opts.json, {"options": asdict(opts), "machine": here, "rows": rows})
+    write_json(opts.json, {"options": asdict(opts), "machine": here, "rows": rows, "complete": True})

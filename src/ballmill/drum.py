@@ -188,13 +188,18 @@ def lattice_packing(drum: DrumConfig, n: int, seed: int) -> np.ndarray:
     return sites + jitter
 
 
-def drum_mesh(drum: DrumConfig) -> Mesh:
-    """A closed faceted drum (trimesh) whose flat facets touch the analytic cylinder."""
+def drum_mesh(drum: DrumConfig, max_aspect: float | None = None) -> Mesh:
+    """A closed faceted drum (trimesh) whose flat facets touch the analytic cylinder; with
+    max_aspect, the shell is cut along the axis so that no facet is longer than max_aspect
+    times its width (else each facet runs the drum's whole length)."""
     import trimesh
 
     n = drum.stl_segments
     radius = drum.inner_diameter_m / 2 / math.cos(math.pi / n)
-    mesh = trimesh.creation.cylinder(radius=radius, height=drum.inner_length_m, sections=n)
+    half, width = drum.inner_length_m / 2, 2 * radius * math.sin(math.pi / n)
+    cuts = 1 if max_aspect is None else max(1, math.ceil(drum.inner_length_m / (max_aspect * width)))
+    profile = [[0.0, -half], *([radius, y] for y in np.linspace(-half, half, cuts + 1)), [0.0, half]]
+    mesh = trimesh.creation.revolve(profile, sections=n)  # a cylinder (trimesh's own, when cuts = 1)
     mesh.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, [1, 0, 0]))
     with tempfile.TemporaryDirectory() as tmp:  # round trip through STL, as CAD input would come
         path = Path(tmp) / "drum.stl"

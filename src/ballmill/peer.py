@@ -7,7 +7,8 @@ ours; each peer set up as its users set up a drum: the domain split along the dr
 (`processors 1 * 1`: every rank holds a slice of the bed), `neigh_modify delay 0`, bins,
 ghost velocities communicated, and the timing of the rotation run alone (its "Loop time").
 LIGGGHTS: Hertz, tangential history, EDEM type-A rolling friction (`cdt`); the drum is the
-faceted STL of `drum_mesh` (LIGGGHTS turns walls only as meshes), with 128 facets.
+faceted STL of `drum_mesh` (LIGGGHTS turns walls only as meshes), with 128 facets, a long
+drum's cut along its axis (`LIGGGHTS_MAX_ASPECT`).
 LAMMPS: `pair_style granular` hertz/material, damping tsuji (the restitution coefficient given;
 Debian's 2021 LAMMPS predates `coeff_restitution`), tangential mindlin,
 rolling sds (a spring-dashpot-slider, its slider at the same coefficient: the nearest to type A
@@ -57,6 +58,10 @@ run {settle_steps}
 fix spin all move/mesh mesh drum rotate origin 0. 0. 0. axis 0. 1. 0. period {period_s}
 {torque_output}run {rotate_steps}
 """
+# LIGGGHTS refuses a mesh facet whose smallest angle is under its `curvature` (0.256 deg: a
+# facet 224 times longer than wide, a long drum's) and warns under 0.5 deg (115 times) that a
+# moving mesh will not parallelize well: a long drum's shell is cut along its axis
+LIGGGHTS_MAX_ASPECT = 100.0
 # the drum's torque about its axis (N m) every `every` steps into torque.txt
 TORQUE_OUTPUT = """variable ty equal f_drum[5]
 fix tq all ave/time 1 {every} {every} v_ty file torque.txt
@@ -80,7 +85,7 @@ def write_case(folder: Path, spec: SystemSpec, drum: DrumConfig, material: Mater
     write_data(folder, spec, material)
     import trimesh
 
-    mesh = drum_mesh(drum) if drum.liner.kind == "smooth" else liner_mesh(drum, closed=True)
+    mesh = drum_mesh(drum, LIGGGHTS_MAX_ASPECT) if drum.liner.kind == "smooth" else liner_mesh(drum, closed=True)
     trimesh.Trimesh(mesh.vertices_m, mesh.faces).export(folder / "drum.stl", file_type="stl_ascii")
     youngs = 2 * material.shear_modulus_pa * (1 + material.poisson_ratio)
     (folder / "in.drum").write_text(INPUT.format(
@@ -151,7 +156,7 @@ PEERS = {"liggghts": ("liggghts", write_case), "lammps": ("lmp", write_lammps_ca
 
 def run_peer(binary: str, folder: Path, ranks: int) -> float:
     """Particle-steps per second of the timed (rotation) run, from the peer's own loop time."""
-    cmd = [binary, "-in", "in.drum", "-log", "none"]
+    cmd = ["stdbuf", "-oL", binary, "-in", "in.drum", "-log", "none"]  # an error's line is not lost at MPI_Abort
     if ranks > 1:
         cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(ranks), *cmd]
     proc = subprocess.run(cmd, cwd=folder, capture_output=True, text=True, check=False)
