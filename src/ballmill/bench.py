@@ -92,10 +92,10 @@ def case_drum(case: str) -> tuple[DrumConfig, MaterialConfig]:
 def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, profile_steps: int,
           precision: str = "f64", skin: float = 0.5, peer: str | None = None, scaling: bool = False,
           rounds: int = 1) -> dict:
-    """Throughput of one drum case (`case_drum`); with
-    `scaling`, the same run on one thread as well.  `rounds` repeats every run (ours, then the
-    peers') one after the other: rates and ratios are medians over the rounds, each ratio taken
-    within its round (this machine's speed drifts over minutes)."""
+    """Throughput of one drum case (`case_drum`); with `scaling`, the same run on one thread as
+    well.  `rounds` repeats every run (ours, then the peers') one after the other: rates and
+    ratios are medians over the rounds, each ratio taken within its round (this machine's
+    speed drifts over minutes)."""
     drum, material = case_drum(case)
     sim = SimConfig(arch=arch, threads=threads, precision=precision, settle_s=settle_s, duration_s=rotate_s,
                     sample_every_s=min(0.05, rotate_s / 2), neighbour_skin=skin, max_overlap_fraction=0.1)
