@@ -3,9 +3,13 @@
 import math
 import os
 
+import pytest
+
+import ballmill.bench
 from ballmill.bench import REFERENCE, case_drum, core_balance, machine, peer_names
-from ballmill.cli import compose_command
+from ballmill.cli import compose_command, options
 from ballmill.drum import ball_count
+from ballmill.files import read_json
 
 
 def test_core_balance_is_the_slowest_cores_speed_over_the_fastests_and_nan_on_one_core():
@@ -40,3 +44,17 @@ def test_a_long_case_holds_its_balls_in_the_reference_drums_cross_section():
     assert long.inner_diameter_m == REFERENCE.inner_diameter_m  # as deep a bed as the reference's
     assert scaled.inner_diameter_m / REFERENCE.inner_diameter_m == scaled.inner_length_m / REFERENCE.inner_length_m
     assert math.isclose(long.inner_length_m, 2.315, rel_tol=1e-3)
+
+
+def test_a_case_that_fails_keeps_the_cases_before_it(tmp_path, monkeypatch):
+    def bench(case, *args, **kwargs):  # the drums stand in: a peer that fails on the second case
+        if case == "bpr19":
+            raise RuntimeError("liggghts failed")
+        return {"case": case, "particle_steps_per_s": 1e7}
+
+    monkeypatch.setattr(ballmill.bench, "bench", bench)
+    out = tmp_path / "bench.json"
+    with pytest.raises(RuntimeError, match="liggghts failed"):
+        ballmill.bench.main(options(compose_command("bench", ["cases=[1000,bpr19]", f"json={out}"]), "bench"))
+    written = read_json(out)
+    assert written["complete"] is False and [r["case"] for r in written["rows"]] == ["1000"]
