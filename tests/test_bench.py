@@ -42,7 +42,8 @@ def test_a_long_case_holds_its_balls_in_the_reference_drums_cross_section():
     scaled, long = case_drum("100000")[0], case_drum("long100000")[0]
     assert ball_count(scaled) == ball_count(long) == 100_000
     assert long.inner_diameter_m == REFERENCE.inner_diameter_m  # as deep a bed as the reference's
-    assert scaled.inner_diameter_m / REFERENCE.inner_diameter_m == scaled.inner_length_m / REFERENCE.inner_length_m
+    assert math.isclose(scaled.inner_diameter_m / REFERENCE.inner_diameter_m,
+                        scaled.inner_length_m / REFERENCE.inner_length_m)
     assert math.isclose(long.inner_length_m, 2.315, rel_tol=1e-3)
 
 
