@@ -356,8 +356,9 @@ class Walls:
                 f += df
                 t += dt_
                 elastic += de
+        if cnt > 0 or self.c_n[old, i] > 0:  # else nothing to book (most particles: no line to touch)
+            self.book.hold(i, elastic[0], elastic[1], self.book.elastic_walls, self.book.spring_walls)
         self.c_n[new, i] = ti.min(cnt, self.k_max)
-        self.book.hold(i, elastic[0], elastic[1], self.book.elastic_walls, self.book.spring_walls)
         if ti.static(self.collision_log):
             self.finish_collisions(i, old, new, k)
         return f, t
