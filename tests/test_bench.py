@@ -59,3 +59,24 @@ def test_a_case_that_fails_keeps_the_cases_before_it(tmp_path, monkeypatch):
         ballmill.bench.main(options(compose_command("bench", ["cases=[1000,bpr19]", f"json={out}"]), "bench"))
     written = read_json(out)
     assert written["complete"] is False and [r["case"] for r in written["rows"]] == ["1000"]
+
+
+def test_a_large_case_is_compared_with_the_reference_drum_over_the_same_windows(tmp_path, monkeypatch):
+    runs = []
+
+    def bench(case, arch, threads, settle_s, rotate_s, *args, **kwargs):  # the drums stand in
+        runs.append((case, settle_s, rotate_s))
+        rate = 8e6 if case == "long100000" else 1e7
+        return {"case": case, "particle_steps_per_s": rate, "lammps_2_ranks": rate / 2,
+                "ratio_to_lammps_2_ranks": 2.0}
+
+    monkeypatch.setattr(ballmill.bench, "bench", bench)
+    out = tmp_path / "bench.json"
+    ballmill.bench.main(options(compose_command("bench", ["cases=[8640,long100000]", f"json={out}"]), "bench"))
+    opts = compose_command("bench", [])
+    large = (opts.large_settle_s, opts.large_rotate_s)
+    assert runs == [("8640", opts.settle_s, opts.rotate_s), ("long100000", *large), ("8640", *large)]
+    rows = read_json(out)["rows"]
+    assert "size_ratio" not in rows[0]
+    assert rows[1]["size_ratio"] == pytest.approx(0.8) and rows[1]["size_ratio_lammps_2_ranks"] == pytest.approx(0.8)
+    assert rows[1]["reference_particle_steps_per_s"] == 1e7 and "size_ratio_ratio_to_lammps_2_ranks" not in rows[1]

@@ -9,7 +9,10 @@ as the reference's and a ball has as many neighbours: what size alone costs.  `b
 paper's mill at BPR 19 instead:
 D 1.743 m, L 2.614 m, 523 balls of 160 mm, 15 rpm, physical steel (G 77 GPa), dt 1.74e-5 s.
 Cases of `large_from` balls or more (the 100,000-ball drums) are timed over shorter
-`large_settle_s` / `large_rotate_s`.  The `scaling` cases run on one thread as well (thread
+`large_settle_s` / `large_rotate_s`, and the reference drum is run again over those same
+windows right after each: what size costs an engine is its rate on the large drum over its rate
+on the reference in the same state of settling and turning (`size_ratios`; a bed's contacts per
+ball, and so the work per particle-step, change as it settles and starts to turn).  The `scaling` cases run on one thread as well (thread
 scaling); each row carries the launch used, the memory the engine took per particle and the
 share of each phase of a step (`Engine.profile`), the cores' balance measured just before
 our run (`core_balance`: on a shared machine one core can run slower than the other, and a
@@ -136,6 +139,15 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
     }
 
 
+def size_ratios(row: dict, reference: dict) -> dict:
+    """A large case's per-particle rate over the reference drum's, both timed over the same
+    windows: ours (`size_ratio`) and each peer's (`size_ratio_<peer>_<n>_ranks`)."""
+    peers = [k for k in row if k.endswith("_ranks") and not k.startswith("ratio_")]
+    return {"reference_particle_steps_per_s": reference["particle_steps_per_s"],
+            "size_ratio": row["particle_steps_per_s"] / reference["particle_steps_per_s"],
+            **{f"size_ratio_{k}": row[k] / reference[k] for k in peers}}
+
+
 # one pinned one-thread loop: python -c SPIN <core> <iterations> prints its seconds
 SPIN = ("import os, sys, time; os.sched_setaffinity(0, {int(sys.argv[1])}); t = time.perf_counter(); "
         "sum(i * i % 7 for i in range(int(sys.argv[2]))); print(time.perf_counter() - t)")
@@ -225,8 +237,11 @@ def main(opts: BenchConfig) -> None:
         for c in opts.cases:
             large = balls[c] >= opts.large_from
             times = (opts.large_settle_s, opts.large_rotate_s) if large else (opts.settle_s, opts.rotate_s)
-            rows.append(bench(c, opts.arch, opts.threads, *times, opts.profile_steps, opts.precision, opts.skin,
-                              opts.peer, scaling=c in opts.scaling, rounds=opts.rounds))
+            args = (opts.arch, opts.threads, *times, opts.profile_steps, opts.precision, opts.skin, opts.peer)
+            row = bench(c, *args, scaling=c in opts.scaling, rounds=opts.rounds)
+            if large:
+                row |= size_ratios(row, bench(str(ball_count(REFERENCE)), *args, rounds=opts.rounds))
+            rows.append(row)
             # after each case, so that a case that fails later loses none of those before
             write_json(opts.json, {"options": asdict(opts), "machine": here, "rows": rows, "complete": False})
     keys = list(dict.fromkeys(k for r in rows for k in r))
