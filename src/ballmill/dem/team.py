@@ -107,11 +107,14 @@ class Pacer:
     bits (engine.py), so the pacer may switch at any launch.  It times the team over windows of
     PROBE_AFTER_S of running time, and after a window in which the team was not MARGIN ahead of
     one thread's last rate (or before any), it times one thread on a short probe: a team
-    clearly ahead is not probed again.  While one thread is ahead, it tries the team after a
+    clearly ahead is not probed again.  The first window is PROBE_FIRST_S, so that the first
+    probe falls early in a run (its settling), not in the part of it that is timed or averaged:
+    after 2 s it fell in the bench's 0.05 s windows and took 37 % of their steps.  While one thread is ahead, it tries the team after a
     window of one thread's running time that doubles each time the team loses (RETRY_S).  The
     team's first launch compiles, and is not timed (the engine compiled the serial launch when
     it computed its first forces)."""
 
+    PROBE_FIRST_S = 0.5  # the team's running time before the first probe (s)
     PROBE_AFTER_S = 2.0  # a window of the team's running time (s)
     PROBE_S = 0.25  # a probe's length (s), at the rate of what runs now
     MARGIN = 1.1  # the other launch takes over when it is this much faster
@@ -129,7 +132,11 @@ class Pacer:
     def plan(self, remaining: int) -> tuple[str, int]:
         """The launch for the next steps and how many of the `remaining` it runs."""
         steps, seconds = self.window
-        if seconds >= (self.PROBE_AFTER_S if self.current == "team" else self.retry_s):
+        if self.current == "serial":
+            limit = self.retry_s
+        else:
+            limit = self.PROBE_AFTER_S if self.rate["serial"] else self.PROBE_FIRST_S
+        if seconds >= limit:
             rate = self.rate[self.current] = self.n * steps / seconds
             self.window = [0, 0.0]
             self.probing = self.current == "serial" or rate < self.MARGIN * self.rate["serial"] or \
