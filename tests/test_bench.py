@@ -67,7 +67,7 @@ def test_a_large_case_is_compared_with_the_reference_drum_over_the_same_windows(
     def bench(case, arch, threads, settle_s, rotate_s, *args, **kwargs):  # the drums stand in
         runs.append((case, settle_s, rotate_s))
         rate = 8e6 if case == "long100000" else 1e7
-        return {"case": case, "particle_steps_per_s": rate, "lammps_2_ranks": rate / 2,
+        return {"case": case, "particle_steps_per_s": rate, "one_thread_share": 0.0, "lammps_2_ranks": rate / 2,
                 "ratio_to_lammps_2_ranks": 2.0}
 
     monkeypatch.setattr(ballmill.bench, "bench", bench)

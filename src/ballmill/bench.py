@@ -144,6 +144,7 @@ def size_ratios(row: dict, reference: dict) -> dict:
     windows: ours (`size_ratio`) and each peer's (`size_ratio_<peer>_<n>_ranks`)."""
     peers = [k for k in row if k.endswith("_ranks") and not k.startswith("ratio_")]
     return {"reference_particle_steps_per_s": reference["particle_steps_per_s"],
+            "reference_one_thread_share": reference["one_thread_share"],
             "size_ratio": row["particle_steps_per_s"] / reference["particle_steps_per_s"],
             **{f"size_ratio_{k}": row[k] / reference[k] for k in peers}}
 
