@@ -132,8 +132,13 @@ def test_an_interrupt_a_library_turned_into_another_error_is_not_recorded_as_a_f
 
     cfg = OmegaConf.create({"study": {"name": "x"}})
     monkeypatch.setattr(run_module, "run", interrupted_inside_a_library)
-    with pytest.raises(KeyboardInterrupt):
-        run_module.attempt(cfg, tmp_path)
+    # Ctrl-C's default action even when the tests run in the background (a shell then ignores SIGINT)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            run_module.attempt(cfg, tmp_path)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     monkeypatch.setattr(run_module, "run", failing)
     record = run_module.attempt(cfg, tmp_path)
     assert record["status"] == "failed" and record["error"] == "AttributeError: a real bug"
