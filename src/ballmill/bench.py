@@ -10,15 +10,16 @@ paper's mill at BPR 19 instead:
 D 1.743 m, L 2.614 m, 523 balls of 160 mm, 15 rpm, physical steel (G 77 GPa), dt 1.74e-5 s.
 Cases of `large_from` balls or more (the 100,000-ball drums) are timed over shorter
 `large_settle_s` / `large_rotate_s`, and the reference drum is run again over those same
-windows right after each: what size costs an engine is its rate on the large drum over its rate
-on the reference in the same state of settling and turning (`size_ratios`; a bed's contacts per
-ball, and so the work per particle-step, change as it settles and starts to turn).  The `scaling` cases run on one thread as well (thread
-scaling); each row carries the launch used, the memory the engine took per particle and the
-share of each phase of a step (`Engine.profile`), the cores' balance measured just before
-our run (`core_balance`: on a shared machine one core can run slower than the other, and a
-team of threads, whose barriers wait for the slower core, can then fall below one thread's
-rate) and the share of the timed steps that the team's pacer gave to one thread for that
-reason (`one_thread_share`, dem/team.py).
+windows right after each: what size costs an engine is its rate on the large drum over its
+rate on the reference in the same state of settling and turning (`size_ratios`; a bed's
+contacts per ball, and so the work of a particle-step, change as it settles and starts to
+turn).  The `scaling` cases run on one thread as well (thread scaling); each row carries
+the launch used, the memory the engine took per particle and the share of each phase of a
+step (`Engine.profile`), the cores' balance measured just before our run (`core_balance`:
+on a shared machine one core can run slower than the other, and a team of threads, whose
+barriers wait for the slower core, can then fall below one thread's rate) and the share of
+the timed steps that the team's pacer gave to one thread for that reason
+(`one_thread_share`, dem/team.py).
 Figures are printed as a table and written as JSON (`json=PATH`) with the machine they were
 measured on (CPU model and cache sizes: whether a bed fits in the last-level cache decides
 how the rate holds up with size); `peer=liggghts`, `lammps` or `both` (= `liggghts,lammps`)

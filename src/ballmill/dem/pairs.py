@@ -67,7 +67,8 @@ class PairContacts:
                     self.monitor.collision(i, j, nl.start[i, c], k, nl.vn0[i, c], nl.ed[i, c])
                 open_ ^= bit(s)
                 used ^= bit(c)
-        if open_ != 0 or nl.open[i] != 0:  # else nothing to book: i's energy record is not touched
+        # no open contact now nor at the last step: nothing to book, bit for bit (record untouched)
+        if open_ != 0 or nl.open[i] != 0:
             self.book.add(i, 0.0, energy[0], energy[1], energy[2])
             self.book.hold(i, energy[3], energy[4], self.book.elastic_pairs, self.book.spring_pairs)
         nl.open[i], nl.used[i] = open_, used

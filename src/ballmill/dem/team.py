@@ -108,9 +108,10 @@ class Pacer:
     PROBE_AFTER_S of running time, and after a window in which the team was not MARGIN ahead of
     one thread's last rate (or before any), it times one thread on a short probe: a team
     clearly ahead is not probed again.  The first window is PROBE_FIRST_S, so that the first
-    probe falls early in a run (its settling), not in the part of it that is timed or averaged:
-    after 2 s it fell in the bench's 0.05 s windows and took 37 % of their steps.  While one thread is ahead, it tries the team after a
-    window of one thread's running time that doubles each time the team loses (RETRY_S).  The
+    probe falls early in a run (its settling), not in the part that is timed or averaged (after
+    2 s it fell in the bench's 0.05 s windows and took 37 % of their steps).  While one thread
+    is ahead, it tries the team after a window of one thread's running time that doubles each
+    time the team loses (RETRY_S).  The
     team's first launch compiles, and is not timed (the engine compiled the serial launch when
     it computed its first forces)."""
 
