@@ -111,9 +111,8 @@ class Pacer:
     probe falls early in a run (its settling), not in the part that is timed or averaged (after
     2 s it fell in the bench's 0.05 s windows and took 37 % of their steps).  While one thread
     is ahead, it tries the team after a window of one thread's running time that doubles each
-    time the team loses (RETRY_S).  The
-    team's first launch compiles, and is not timed (the engine compiled the serial launch when
-    it computed its first forces)."""
+    time the team loses (RETRY_S).  The team's first launch compiles, and is not timed (the
+    engine compiled the serial launch when it computed its first forces)."""
 
     PROBE_FIRST_S = 0.5  # the team's running time before the first probe (s)
     PROBE_AFTER_S = 2.0  # a window of the team's running time (s)
