@@ -1,3 +1,5 @@
 """ballmill: design and cost mechanochemical ball-mill reactors with DEM."""
 
-__version__ = "0.1.0"
+from importlib.metadata import version
+
+__version__ = version("ballmill")  # pyproject.toml's, the one place the version is written

@@ -26,6 +26,7 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
+from . import __version__
 from .config import COMMANDS as SCHEMAS
 from .config import (
     CONF_DIR,
@@ -196,7 +197,8 @@ def describe(schema, prefix: str = "") -> list[str]:
 
 def usage() -> str:
     width = max(map(len, COMMANDS))
-    return "\n".join(["usage: ballmill COMMAND [key=value ...] [--debug]   (ballmill COMMAND --help: its fields)", "",
+    return "\n".join(["usage: ballmill COMMAND [key=value ...] [--debug]   (ballmill COMMAND --help: its fields; "
+                      "ballmill --version)", "",
                       *(f"  {name:<{width}}  {c.summary}" for name, c in COMMANDS.items())])
 
 
@@ -272,6 +274,9 @@ def main(argv: list[str] | None = None) -> None:
     argv = [a for a in argv if a != "--debug"]
     if not argv or argv[0] in ("-h", "--help", "help"):
         print(usage())
+        return
+    if argv[0] in ("-V", "--version"):
+        print(f"ballmill {__version__}")
         return
     name, args = argv[0], argv[1:]
     if name not in COMMANDS:
