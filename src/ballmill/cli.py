@@ -41,6 +41,7 @@ from .config import (
     SimConfig,
     StudyConfig,
     YieldModelConfig,
+    allowed,
     to_object,
 )
 
@@ -183,23 +184,15 @@ def describe(schema, prefix: str = "") -> list[str]:
         if dataclasses.is_dataclass(default):
             lines += describe(type(default), f"{prefix}{f.name}.")
             continue
-        meta, allowed = f.metadata, ""
-        if "choices" in meta:
-            allowed = "one of " + ", ".join(map(str, meta["choices"]))
-        elif "range" in meta:
-            lo, hi, lo_open, hi_open = meta["range"]
-            allowed = (f"{'(' if lo_open else '['}{'-inf' if lo is None else lo}, "
-                       f"{'inf' if hi is None else hi}{')' if hi_open else ']'}")
         shown = "(required)" if default == "???" else json.dumps(default)
-        lines.append(f"  {prefix}{f.name} = {shown}  {allowed}  {meta.get('doc', '')}".rstrip())
+        lines.append(f"  {prefix}{f.name} = {shown}  {allowed(f.metadata)}  {f.metadata.get('doc', '')}".rstrip())
     return lines
 
 
 def usage() -> str:
     width = max(map(len, COMMANDS))
-    return "\n".join(["usage: ballmill COMMAND [key=value ...] [--debug]   (ballmill COMMAND --help: its fields; "
-                      "ballmill --version)", "",
-                      *(f"  {name:<{width}}  {c.summary}" for name, c in COMMANDS.items())])
+    head = "usage: ballmill COMMAND [key=value ...] [--debug]   (COMMAND --help: its fields; ballmill --version)"
+    return "\n".join([head, "", *(f"  {name:<{width}}  {c.summary}" for name, c in COMMANDS.items())])
 
 
 def help_text(name: str) -> str:

@@ -33,28 +33,31 @@ class ConfigError(ValueError):
 
 @dataclass
 class MaterialConfig:
-    density_kg_per_m3: float = rng(7900.0, 0.0, None, lo_open=True)
-    shear_modulus_pa: float = rng(77e9, 0.0, None, lo_open=True)
-    poisson_ratio: float = rng(0.3, 0.0, 0.5, hi_open=True)
-    source: str = ""
+    density_kg_per_m3: float = rng(7900.0, 0.0, None, lo_open=True, doc="mass density")
+    shear_modulus_pa: float = rng(77e9, 0.0, None, lo_open=True, doc="shear modulus G (Young's E = 2 G (1 + v))")
+    poisson_ratio: float = rng(0.3, 0.0, 0.5, hi_open=True, doc="Poisson's ratio v")
+    source: str = field(default="", metadata={"doc": "where the values come from"})
 
 
 @dataclass
 class InteractionConfig:
-    restitution: float = rng(0.5, 0.0, 1.0, lo_open=True)
-    static_friction: float = rng(0.5, 0.0, None)
-    rolling_friction: float = rng(0.01, 0.0, None)
-    source: str = ""
+    restitution: float = rng(0.5, 0.0, 1.0, lo_open=True, doc="normal coefficient of restitution of the pair")
+    static_friction: float = rng(0.5, 0.0, None,
+                                 doc="sliding (Coulomb) friction coefficient: tangential force capped at mu F_n")
+    rolling_friction: float = rng(0.01, 0.0, None, doc="rolling friction coefficient (EDEM type A: torque mu_r F_n R)")
+    source: str = field(default="", metadata={"doc": "where the values come from"})
 
 
 @dataclass
 class SimConfig:
     """Numerics of a DEM run: backend, time step, durations, sampling, outputs and guard rails."""
 
-    arch: str = field(default="cpu", metadata={"choices": ("cpu", "cuda")})
-    precision: str = field(default="f64", metadata={"choices": ("f64", "f32")})
+    arch: str = field(default="cpu", metadata={
+        "choices": ("cpu", "cuda"), "doc": "Taichi backend; cuda never falls back to the CPU"})
+    precision: str = field(default="f64", metadata={
+        "choices": ("f64", "f32"), "doc": "floating point of the engine (f64 for reference runs)"})
     threads: int = rng(0, 0, None, doc="CPU threads for Taichi; 0 = all cores")
-    seed: int = rng(0, 0, None)
+    seed: int = rng(0, 0, None, doc="seed of the initial state (which size takes which lattice site, jar starts)")
     dt_fraction: float = rng(0.2, 0.0, 1.0, lo_open=True, doc="time step as a fraction of Rayleigh's")
     dt_s: float | None = rng(None, 0.0, None, lo_open=True, doc="explicit time step (s), overrides dt_fraction")
     allow_unstable_time_step: bool = field(default=False, metadata={
@@ -62,7 +65,8 @@ class SimConfig:
     shear_modulus_scale: float = rng(1.0, 0.0, 1.0, lo_open=True, doc="stiffness reduction for speed (1 = physical)")
     settle_s: float = rng(0.5, 0.0, None, doc="time the charge settles before the vessel moves (s)")
     duration_s: float = rng(1.0, 0.0, None, lo_open=True, doc="time simulated after settling (s)")
-    sample_every_s: float = rng(0.01, 0.0, None, lo_open=True)
+    sample_every_s: float = rng(0.01, 0.0, None, lo_open=True,
+                                doc="time between two recorded samples of loads and energy (s)")
     steady_after_s: float = rng(0.5, 0.0, None, doc="power is averaged over samples later than this after start (s)")
     power_se_target: float | None = rng(None, 0.0, 1.0, lo_open=True, doc=(
         "drum: stop once the mean power's standard error is below this fraction of it (after at least one "
@@ -75,7 +79,8 @@ class SimConfig:
         "wall-clock time between checkpoints of a drum run (s; a run shorter than this writes none); null: none"))
     neighbour_skin: float = rng(0.5, 0.0, None, lo_open=True,
                                 doc="Verlet skin / largest ball radius (larger: fewer list rebuilds, more candidates)")
-    event_capacity: int = rng(200_000, 1, None, doc="finished collisions the engine holds (read at the first sample that finds it half full, and at the end)")
+    event_capacity: int = rng(200_000, 1, None, doc=("finished collisions the engine holds (read at the first sample "
+                                                     "that finds it half full, and at the end)"))
     max_overlap_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True, doc="largest overlap / radius before a run stops")
     neighbour_search: str = field(default="auto", metadata={
         "choices": ("auto", "grid", "all_pairs"), "doc": "auto: a cell grid when a replica has more than 8 balls"})
@@ -96,12 +101,15 @@ class LinerConfig:
     fractions (height of the inner diameter, top width of the height) for mills sized by the
     scale-up; give one of each pair."""
 
-    kind: str = field(default="smooth", metadata={"choices": ("smooth", "bars", "wave")})
+    kind: str = field(default="smooth", metadata={
+        "choices": ("smooth", "bars", "wave"), "doc": "shell profile: smooth cylinder, lifter bars or a wave liner"})
     count: int = rng(0, 0, None, doc="lifter bars or waves around the shell")
-    height_m: float | None = rng(None, 0.0, None, lo_open=True)
-    height_to_diameter: float | None = rng(None, 0.0, 0.25, lo_open=True)
+    height_m: float | None = rng(None, 0.0, None, lo_open=True, doc="bar height or wave peak-to-trough (m)")
+    height_to_diameter: float | None = rng(None, 0.0, 0.25, lo_open=True,
+                                           doc="height_m / inner diameter (mills sized by the scale-up)")
     top_width_m: float | None = rng(None, 0.0, None, lo_open=True, doc="bars: width of the bar's top")
-    top_width_to_height: float | None = rng(None, 0.0, None, lo_open=True)
+    top_width_to_height: float | None = rng(None, 0.0, None, lo_open=True,
+                                            doc="bars: top width / bar height (mills sized by the scale-up)")
     face_angle_deg: float = rng(0.0, 0.0, 60.0, doc="bars: each face's tilt from the radial line")
     first_angle_deg: float = rng(0.0, None, None, doc="angular position of the first bar or wave crest")
 
@@ -122,9 +130,9 @@ class LinerConfig:
 class BallSizeConfig:
     """One size of a graded charge: a diameter and either a ball count or a mass fraction."""
 
-    diameter_m: float = rng(0.02, 0.0, None, lo_open=True)
-    count: int | None = rng(None, 1, None)
-    mass_fraction: float | None = rng(None, 0.0, 1.0, lo_open=True)
+    diameter_m: float = rng(0.02, 0.0, None, lo_open=True, doc="ball diameter (m)")
+    count: int | None = rng(None, 1, None, doc="balls of this size")
+    mass_fraction: float | None = rng(None, 0.0, 1.0, lo_open=True, doc="this size's share of the charge's mass")
 
 
 def check_charge(name: str, charge: list[BallSizeConfig]) -> None:
@@ -144,20 +152,24 @@ class DrumConfig:
     """A horizontal rotating drum (axis along y), flat ends, smooth or lined shell, balls of
     one size (ball_radius_m) or a graded charge."""
 
-    inner_diameter_m: float = rng(0.4, 0.0, None, lo_open=True)
-    inner_length_m: float = rng(0.2, 0.0, None, lo_open=True)
-    ball_radius_m: float = rng(0.005, 0.0, None, lo_open=True)
+    inner_diameter_m: float = rng(0.4, 0.0, None, lo_open=True, doc="inside diameter of the shell (m)")
+    inner_length_m: float = rng(0.2, 0.0, None, lo_open=True, doc="inside length between the end walls (m)")
+    ball_radius_m: float = rng(0.005, 0.0, None, lo_open=True, doc="radius of every ball of a one-size charge (m)")
     fill_fraction: float = rng(0.3, 0.0, 1.0, lo_open=True, hi_open=True, doc="ball bed volume / mill volume")
-    bed_porosity: float = rng(0.4, 0.0, 1.0, hi_open=True)
+    bed_porosity: float = rng(0.4, 0.0, 1.0, hi_open=True,
+                              doc="void share of the ball bed: with fill_fraction, the ball count")
     ball_count: int | None = rng(None, 1, None, doc="overrides fill_fraction and bed_porosity")
     speed_rpm: float | None = rng(None, 0.0, None, lo_open=True, doc="explicit speed; else fraction_of_critical")
-    fraction_of_critical: float = rng(0.7, 0.0, 1.5, lo_open=True)
-    geometry: str = field(default="analytic", metadata={"choices": ("analytic", "stl")})
-    stl_path: str | None = None
+    fraction_of_critical: float = rng(0.7, 0.0, 1.5, lo_open=True,
+                                      doc="speed / critical speed, N_c = 42.3 / sqrt(D - d) rpm (speed_rpm null)")
+    geometry: str = field(default="analytic", metadata={
+        "choices": ("analytic", "stl"), "doc": "shell as analytic cylinder and planes, or as a triangle mesh"})
+    stl_path: str | None = field(default=None, metadata={
+        "doc": "stl: a closed STL of the vessel; null: a mesh of the drum with stl_segments facets"})
     stl_segments: int = rng(128, 8, None, doc="facets around a generated drum mesh (STL drum, lined shell)")
-    ball_material: str = "steel"
-    wall_material: str = "steel"
-    liner: LinerConfig = field(default_factory=LinerConfig)
+    ball_material: str = field(default="steel", metadata={"doc": "a name of materials.* (conf/material/)"})
+    wall_material: str = field(default="steel", metadata={"doc": "a name of materials.* (conf/material/)"})
+    liner: LinerConfig = field(default_factory=LinerConfig, metadata={"doc": "the shell's profile (mill.liner.*)"})
     charge: list[BallSizeConfig] = field(default_factory=list, metadata={
         "doc": "graded charge (replaces ball_radius_m; with counts it replaces the fill too)"})
 
@@ -173,20 +185,26 @@ class ScaleupConfig:
     region: str | None = field(default=None, metadata={
         "doc": "state code: feed = national PET x population share (set pet_feed_kg_per_h=null)"})
     napcor_quantity: str = field(default="bottles_collected", metadata={
-        "choices": ("bottles_collected", "bought_by_us_reclaimers", "available_for_recycling")})
-    operating_hours_per_year: float = rng(7920.0, 0.0, 8784.0, lo_open=True)
+        "choices": ("bottles_collected", "bought_by_us_reclaimers", "available_for_recycling"),
+        "doc": "which NAPCOR 2018 quantity is the national PET (data/napcor_2018.csv)"})
+    operating_hours_per_year: float = rng(7920.0, 0.0, 8784.0, lo_open=True,
+                                          doc="operating hours of the mill per year (h)")
     naoh_feed_kg_per_h: float | None = rng(None, 0.0, None, doc="explicit NaOH feed; else naoh_to_stoichiometric")
     naoh_to_stoichiometric: float = rng(1.0, 0.0, None, lo_open=True, doc="NaOH feed / 2 mol per PET repeat unit")
     bpr: float = rng(19.0, 0.0, None, lo_open=True, doc="ball mass / reactant (PET + NaOH) mass")
-    residence_time_min: float = rng(20.0, 0.0, None, lo_open=True)
-    fill_fraction: float = rng(0.3, 0.0, 1.0, lo_open=True, hi_open=True)
-    bed_porosity: float = rng(0.4, 0.0, 1.0, hi_open=True)
-    ball_radius_m: float = rng(0.08, 0.0, None, lo_open=True)
-    ball_density_kg_per_m3: float = rng(7900.0, 0.0, None, lo_open=True)
+    residence_time_min: float = rng(20.0, 0.0, None, lo_open=True, doc="time the charge spends in the mill (min)")
+    fill_fraction: float = rng(0.3, 0.0, 1.0, lo_open=True, hi_open=True, doc="ball bed volume / mill volume")
+    bed_porosity: float = rng(0.4, 0.0, 1.0, hi_open=True, doc="void share of the ball bed")
+    ball_radius_m: float = rng(0.08, 0.0, None, lo_open=True, doc="ball radius of a one-size charge (m)")
+    ball_density_kg_per_m3: float = rng(7900.0, 0.0, None, lo_open=True, doc="ball material density")
     speed_rpm: float | None = rng(15.0, 0.0, None, lo_open=True, doc="null: fraction_of_critical x critical speed")
-    shape_rule: str = field(default="length_to_diameter", metadata={"choices": ("length_to_diameter", "fraction_of_critical")})
-    length_to_diameter: float = rng(1.5, 0.0, None, lo_open=True)
-    fraction_of_critical: float = rng(0.7, 0.0, 1.5, lo_open=True)
+    shape_rule: str = field(default="length_to_diameter", metadata={
+        "choices": ("length_to_diameter", "fraction_of_critical"),
+        "doc": "the mill's proportions: a fixed L/D, or the diameter that puts speed_rpm at fraction_of_critical"})
+    length_to_diameter: float = rng(1.5, 0.0, None, lo_open=True,
+                                    doc="mill length / diameter (shape_rule=length_to_diameter)")
+    fraction_of_critical: float = rng(0.7, 0.0, 1.5, lo_open=True,
+                                      doc="speed / critical speed (shape_rule=fraction_of_critical, or speed_rpm null)")
     charge: list[BallSizeConfig] = field(default_factory=list, metadata={
         "doc": "graded charge by mass fraction (replaces ball_radius_m; the counts follow from the BPR)"})
 
@@ -200,23 +218,27 @@ class ScaleupConfig:
 class EconomicsConfig:
     """Paper's Eq. 1-3 inputs; prices and indices are read from data/ files."""
 
-    electricity_usd_per_kwh: float = rng(0.07, 0.0, None)
-    hours_per_year: float = rng(7920.0, 0.0, 8784.0, lo_open=True)
-    cost_coefficient_usd: float = rng(64640.0, 0.0, None, lo_open=True)
-    cost_exponent: float = rng(0.64, 0.0, 2.0, lo_open=True)
-    capacity_unit: str = field(default="short_ton_per_h", metadata={"choices": ("short_ton_per_h", "tonne_per_h")})
-    capacity_basis: str = field(default="pet", metadata={"choices": ("pet", "pet_plus_naoh")})
+    electricity_usd_per_kwh: float = rng(0.07, 0.0, None, doc="electricity price")
+    hours_per_year: float = rng(7920.0, 0.0, 8784.0, lo_open=True, doc="operating hours per year (h)")
+    cost_coefficient_usd: float = rng(64640.0, 0.0, None, lo_open=True,
+                                      doc="C0 of the purchase cost C = C0 W^n (USD at cepci_base_year)")
+    cost_exponent: float = rng(0.64, 0.0, 2.0, lo_open=True, doc="n of the purchase cost C = C0 W^n")
+    capacity_unit: str = field(default="short_ton_per_h", metadata={
+        "choices": ("short_ton_per_h", "tonne_per_h"), "doc": "unit of the correlation's capacity W"})
+    capacity_basis: str = field(default="pet", metadata={
+        "choices": ("pet", "pet_plus_naoh"), "doc": "what W counts: the PET feed, or PET + NaOH"})
     capacity_scaling: str = field(default="feed", metadata={
         "choices": ("feed", "holdup"),
         "doc": "W of the cost correlation: the feed (the paper), or the feed x residence time / "
                "reference_residence_time_min (a mill priced by the charge it holds)"})
     reference_residence_time_min: float = rng(20.0, 0.0, None, lo_open=True,
                                               doc="residence time at which the correlation's W is the feed")
-    cepci_base_year: int = rng(2005, 1950, 2100)
-    cepci_target_year: int = rng(2022, 1950, 2100)
-    prices_file: str = "prices.csv"
-    cepci_file: str = "cepci.csv"
-    molar_masses_file: str = "molar_masses.csv"
+    cepci_base_year: int = rng(2005, 1950, 2100, doc="CEPCI year of the correlation's costs")
+    cepci_target_year: int = rng(2022, 1950, 2100, doc="CEPCI year costs are brought to")
+    prices_file: str = field(default="prices.csv", metadata={"doc": "raw-material and product prices, a data/ table"})
+    cepci_file: str = field(default="cepci.csv", metadata={"doc": "cost indices, a data/ table"})
+    molar_masses_file: str = field(default="molar_masses.csv", metadata={
+        "doc": "molar masses of the stoichiometry, a data/ table"})
 
 
 @dataclass
@@ -224,17 +246,21 @@ class MM400Config:
     """Retsch MM400 jar and motion.  No citable source gave the 25 mL jar's inner size or the
     arm's geometry: defaults are estimates (see README, "Lab scale"), each a field to sweep."""
 
-    jar_volume_ml: float = rng(25.0, 0.0, None, lo_open=True)
+    jar_volume_ml: float = rng(25.0, 0.0, None, lo_open=True,
+                               doc="inner volume of the jar (mL); with the bore it sets the jar's length")
     jar_inner_diameter_m: float = rng(0.030, 0.0, None, lo_open=True, doc="end caps hemispherical")
     amplitude_m: float = rng(0.009, 0.0, None, doc="half stroke of the jar centre along its arc")
     pivot_radius_m: float = rng(0.11, 0.0, None, lo_open=True, doc="arm length: pivot to jar centre")
-    frequencies_hz: list[float] = field(default_factory=lambda: [22.5, 25.0, 27.5, 30.0])
-    ball_diameters_m: list[float] = field(default_factory=lambda: [0.0176, 0.0206])
-    balls_per_jar: int = rng(1, 1, 2)
-    wall_material: str = "pmma"
-    ball_material: str = "steel"
-    camera_fps: float = rng(2134.0, 0.0, None, lo_open=True)
-    duration_s: float = rng(2.0, 0.0, None, lo_open=True)
+    frequencies_hz: list[float] = field(default_factory=lambda: [22.5, 25.0, 27.5, 30.0], metadata={
+        "doc": "shaking frequencies simulated (Hz)"})
+    ball_diameters_m: list[float] = field(default_factory=lambda: [0.0176, 0.0206], metadata={
+        "doc": "ball diameters simulated (m)"})
+    balls_per_jar: int = rng(1, 1, 2, doc="balls in each jar")
+    wall_material: str = field(default="pmma", metadata={"doc": "jar material, a name of materials.*"})
+    ball_material: str = field(default="steel", metadata={"doc": "ball material, a name of materials.*"})
+    camera_fps: float = rng(2134.0, 0.0, None, lo_open=True,
+                            doc="frame rate of the filmed speeds and collisions (frames/s)")
+    duration_s: float = rng(2.0, 0.0, None, lo_open=True, doc="simulated shaking per condition (s)")
     settle_s: float = rng(0.2, 0.0, None, doc="start-up transient left out of the statistics")
     collision_speed_jump_m_per_s: float = rng(1.0, 0.0, None, lo_open=True,
                                               doc="frame-to-frame velocity change counted as a collision; "
@@ -264,10 +290,10 @@ class KineticsLabConfig:
     balls of one size, the BPR set by the powder mass.  Which of these the literature states
     and which are assumed: data/yield_lab_conditions.csv."""
 
-    frequency_hz: float = rng(30.0, 0.0, None, lo_open=True)
-    balls_per_jar: int = rng(1, 1, 2)
-    ball_diameter_m: float = rng(0.0206, 0.0, None, lo_open=True)
-    jar_material: str = "steel"
+    frequency_hz: float = rng(30.0, 0.0, None, lo_open=True, doc="shaking frequency of the kinetics experiments (Hz)")
+    balls_per_jar: int = rng(1, 1, 2, doc="balls in the jar")
+    ball_diameter_m: float = rng(0.0206, 0.0, None, lo_open=True, doc="ball diameter (m)")
+    jar_material: str = field(default="steel", metadata={"doc": "jar material, a name of materials.*"})
     bpr_basis: str = field(default="pet_plus_naoh", metadata={
         "choices": ("pet_plus_naoh", "pet"), "doc": "the BPR's powder: PET + stoichiometric NaOH, or PET alone"})
     duration_s: float = rng(3.0, 0.0, None, lo_open=True, doc="simulated milling (s)")
@@ -286,13 +312,18 @@ class YieldModelConfig:
     """TPA yield of the mill: the seed's BPR line, or yield from the collision dose per kg of
     PET calibrated on the lab DEM (see README, "Yield from the mechanics")."""
 
-    rule: str = field(default="bpr_line", metadata={"choices": ("bpr_line", "specific_energy", "impact_threshold")})
-    bpr_slope_percent: float = 6.38
-    bpr_intercept_percent: float = -46.35
-    bpr_min: float = 10.0
-    bpr_max: float = 23.0
+    rule: str = field(default="bpr_line", metadata={
+        "choices": ("bpr_line", "specific_energy", "impact_threshold"),
+        "doc": "bpr_line: yield from the BPR; specific_energy: from the collision dose; impact_threshold: from the "
+               "dose of impacts of at least impact_threshold_j"})
+    bpr_slope_percent: float = field(default=6.38, metadata={
+        "doc": "slope of the lab's yield line Y = slope BPR + intercept (% per unit BPR)"})
+    bpr_intercept_percent: float = field(default=-46.35, metadata={"doc": "intercept of the lab's yield line (%)"})
+    bpr_min: float = field(default=10.0, metadata={"doc": "lowest BPR of the line's experiments"})
+    bpr_max: float = field(default=23.0, metadata={"doc": "highest BPR of the line's experiments"})
     lab_time_min: float = rng(20.0, 0.0, None, lo_open=True, doc="milling time of the BPR line's experiments")
-    allow_extrapolation: bool = False
+    allow_extrapolation: bool = field(default=False, metadata={
+        "doc": "use the line outside [bpr_min, bpr_max] (refused otherwise)"})
     impact_threshold_j: float = rng(0.01, 0.0, None, lo_open=True,
                                     doc="E*: collisions with a normal impact energy at least this count (J)")
     mode: str = field(default="target_yield", metadata={
@@ -305,7 +336,8 @@ class YieldModelConfig:
     dose_batches: int = rng(10, 2, None, doc="averaging window split into this many batches for standard errors")
     run_lab_calibration: bool = field(default=False, metadata={
         "doc": "energy rules: run the lab calibration (about a minute) when it is missing, instead of refusing"})
-    lab: KineticsLabConfig = field(default_factory=KineticsLabConfig)
+    lab: KineticsLabConfig = field(default_factory=KineticsLabConfig, metadata={
+        "doc": "the lab experiments behind the line (yield_model.lab.*)"})
 
 
 @dataclass
@@ -316,24 +348,28 @@ class PlantConfig:
 
     recycle_purge_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True,
                                         doc="share of the unreacted PET purged (1: no recycle)")
-    dissolution_water_kg_per_kg_na2tpa: float = rng(8.0, 0.0, None, lo_open=True)
-    h2so4_to_stoichiometric: float = rng(1.02, 1.0, None)
-    tpa_recovery: float = rng(0.98, 0.0, 1.0, lo_open=True)
-    wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, None)
-    cake_water_kg_per_kg_tpa: float = rng(0.25, 0.0, None)
-    eg_recovery: float = rng(0.95, 0.0, 1.0)
-    dryer_steam_kg_per_kg_water: float = rng(1.3, 0.0, None, lo_open=True)
+    dissolution_water_kg_per_kg_na2tpa: float = rng(8.0, 0.0, None, lo_open=True, doc="water that dissolves the Na2TPA")
+    h2so4_to_stoichiometric: float = rng(1.02, 1.0, None,
+                                         doc="H2SO4 dosed / the acid that neutralises the Na2TPA and the NaOH left")
+    tpa_recovery: float = rng(0.98, 0.0, 1.0, lo_open=True, doc="share of the TPA the filter and wash recover")
+    wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, None, doc="wash water on the TPA cake")
+    cake_water_kg_per_kg_tpa: float = rng(0.25, 0.0, None, doc="water the washed cake carries to the dryer")
+    eg_recovery: float = rng(0.95, 0.0, 1.0, doc="share of the EG the column recovers")
+    dryer_steam_kg_per_kg_water: float = rng(1.3, 0.0, None, lo_open=True, doc="dryer steam per kg of water evaporated")
     evaporator_steam_economy: float = rng(3.0, 0.0, None, lo_open=True, doc="kg water evaporated per kg steam")
-    eg_column_steam_kg_per_kg_eg: float = rng(2.0, 0.0, None)
-    cooling_water_rise_k: float = rng(10.0, 0.0, None, lo_open=True)
-    shredding_energy_kwh_per_t: float = rng(132.0, 0.0, None)
-    tank_residence_time_h: float = rng(1.0, 0.0, None, lo_open=True)
+    eg_column_steam_kg_per_kg_eg: float = rng(2.0, 0.0, None, doc="EG column steam per kg of EG")
+    cooling_water_rise_k: float = rng(10.0, 0.0, None, lo_open=True, doc="temperature rise of the cooling water (K)")
+    shredding_energy_kwh_per_t: float = rng(132.0, 0.0, None, doc="shredder's electricity per tonne of bale PET")
+    tank_residence_time_h: float = rng(1.0, 0.0, None, lo_open=True,
+                                       doc="residence time that sizes the dissolver and acidifier (h)")
     filter_flux_kg_per_m2_h: float = rng(200.0, 0.0, None, lo_open=True, doc="solids per filter area")
-    evaporator_u_w_per_m2_k: float = rng(1500.0, 0.0, None, lo_open=True)
-    evaporator_delta_t_k: float = rng(15.0, 0.0, None, lo_open=True)
-    steam_usd_per_t: float = rng(25.0, 0.0, None)
-    cooling_water_usd_per_t: float = rng(0.05, 0.0, None)
-    process_water_usd_per_t: float = rng(0.25, 0.0, None)
+    evaporator_u_w_per_m2_k: float = rng(1500.0, 0.0, None, lo_open=True,
+                                         doc="overall heat-transfer coefficient of the evaporator")
+    evaporator_delta_t_k: float = rng(15.0, 0.0, None, lo_open=True,
+                                      doc="temperature difference across the evaporator's tubes (K)")
+    steam_usd_per_t: float = rng(25.0, 0.0, None, doc="steam price")
+    cooling_water_usd_per_t: float = rng(0.05, 0.0, None, doc="cooling water price")
+    process_water_usd_per_t: float = rng(0.25, 0.0, None, doc="process water price")
     na2so4_usd_per_t: float = field(default=0.0, metadata={"doc": "sale (> 0) or disposal (< 0) of the salt"})
     residue_usd_per_t: float = rng(-50.0, None, 0.0, doc="disposal of purged PET and column residue (< 0)")
     equipment_cost_factor: float = rng(1.0, 0.0, None, lo_open=True, doc="multiplies every purchase cost")
@@ -343,19 +379,20 @@ class PlantConfig:
     indirect_factor: float = rng(0.6, 0.0, None, doc="engineering, construction, contingency, other / direct cost")
     working_capital_fraction: float = rng(0.05, 0.0, None, doc="of the fixed capital")
     staff: int = rng(20, 0, None, doc="employees")
-    salary_usd_per_yr: float = rng(60000.0, 0.0, None)
+    salary_usd_per_yr: float = rng(60000.0, 0.0, None, doc="salary per employee")
     labour_burden: float = rng(0.9, 0.0, None, doc="overhead on salaries")
     maintenance_fraction: float = rng(0.03, 0.0, None, doc="of ISBL per year")
     insurance_fraction: float = rng(0.007, 0.0, None, doc="property insurance and tax, of the fixed capital per year")
-    plant_life_yr: int = rng(30, 1, 100)
+    plant_life_yr: int = rng(30, 1, 100, doc="years of operation")
     construction_fractions: list[float] = field(default_factory=lambda: [0.08, 0.60, 0.32], metadata={
         "doc": "capital spent in each construction year (sums to 1)"})
     discount_rate: float = rng(0.10, 0.0, 1.0, doc="real, after tax")
-    tax_rate: float = rng(0.21, 0.0, 1.0, hi_open=True)
-    depreciation_file: str = "macrs_7yr.csv"
-    cost_file: str = "equipment_costs.csv"
-    monte_carlo_draws: int = rng(2000, 0, None)
-    seed: int = rng(0, 0, None)
+    tax_rate: float = rng(0.21, 0.0, 1.0, hi_open=True, doc="income tax rate")
+    depreciation_file: str = field(default="macrs_7yr.csv", metadata={"doc": "depreciation schedule, a data/ table"})
+    cost_file: str = field(default="equipment_costs.csv", metadata={
+        "doc": "equipment cost correlations, a data/ table"})
+    monte_carlo_draws: int = rng(2000, 0, None, doc="draws of the MSP's Monte Carlo (0: none)")
+    seed: int = rng(0, 0, None, doc="seed of the Monte Carlo draws")
 
     def __post_init__(self):
         check_positive_lists(self, "plant", ("construction_fractions",))
@@ -377,7 +414,9 @@ class DemConfig:
     """Where a design's power and collision dose come from: the DEM of its mill (full) or the
     surrogate fitted to DEM runs (milliseconds; its predicted uncertainty is recorded)."""
 
-    mode: str = field(default="full", metadata={"choices": ("full", "surrogate")})
+    mode: str = field(default="full", metadata={
+        "choices": ("full", "surrogate"),
+        "doc": "full: the DEM of every mill; surrogate: the Gaussian processes fitted to DEM runs"})
     table: str = field(default="surrogate_training.csv", metadata={
         "doc": "the surrogate's training table: a data/ table or a path (from `ballmill surrogate`)"})
     allow_extrapolation: bool = field(default=False, metadata={
@@ -447,9 +486,12 @@ class CalibrationConfig:
 
     videos: str = field(default="???", metadata={"doc": "folder of videos with a videos.csv manifest"})
     out: str = field(default="outputs/lab/calibration", metadata={"doc": "where tables, figures and best.json go"})
-    method: str = field(default="grid", metadata={"choices": ("grid", "optuna", "both")})
-    restitutions: list[float] = field(default_factory=lambda: [0.3, 0.45, 0.6, 0.75, 0.9])
-    frictions: list[float] = field(default_factory=lambda: [0.1, 0.2, 0.3, 0.4, 0.5])
+    method: str = field(default="grid", metadata={
+        "choices": ("grid", "optuna", "both"), "doc": "grid search, Bayesian search (Optuna), or both, compared"})
+    restitutions: list[float] = field(default_factory=lambda: [0.3, 0.45, 0.6, 0.75, 0.9], metadata={
+        "doc": "grid: the ball-wall restitutions tried"})
+    frictions: list[float] = field(default_factory=lambda: [0.1, 0.2, 0.3, 0.4, 0.5], metadata={
+        "doc": "grid: the ball-wall friction coefficients tried"})
     collision_weight: float = rng(1.0, 0.0, None, doc="weight of the collision-rate error beside the speed error")
     repeats: int = rng(1, 1, None, doc="starts simulated per condition and pair, averaged (less noise)")
     restitution_range: list[float] = field(default_factory=lambda: [0.3, 0.9],
@@ -485,13 +527,16 @@ class StudyReport:
 class StudyConfig:
     """What a run does (a pipeline of studies.STUDIES) and how its sweep is reported."""
 
-    name: str = "design"
-    kind: str = field(default="design", metadata={"choices": ("design", "drum", "lab", "yield_calibration", "plant",
-                                                                 "cheapest_mill")})
+    name: str = field(default="design", metadata={
+        "doc": "the run's name: its folder under outputs/runs or outputs/sweeps"})
+    kind: str = field(default="design", metadata={
+        "choices": ("design", "drum", "lab", "yield_calibration", "plant", "cheapest_mill"),
+        "doc": "the pipeline the run executes (studies.STUDIES)"})
     observations: str | None = field(default=None, metadata={"doc": "observations.csv drawn beside a lab study"})
     experiment: str | None = field(default=None, metadata={
         "doc": "drum: the experiment of data/measured_mill_power.csv the mill group reproduces"})
-    report: StudyReport = field(default_factory=StudyReport)
+    report: StudyReport = field(default_factory=StudyReport, metadata={
+        "doc": "how `ballmill report` presents the sweep (study.report.*)"})
 
 
 @dataclass
@@ -504,7 +549,9 @@ class TrackConfig:
     mm_per_px: float | None = rng(None, 0.0, None, lo_open=True, doc="image scale; else the sidecar's")
     balls: int = rng(2, 1, 2, doc="balls in the jar")
     ball_diameter_mm: float = rng(17.6, 0.0, None, lo_open=True, doc="ball size")
-    polarity: str = field(default="auto", metadata={"choices": ("auto", "dark", "bright")})
+    polarity: str = field(default="auto", metadata={
+        "choices": ("auto", "dark", "bright"),
+        "doc": "dark balls on a bright background, bright on dark, or told from the frames"})
     out: str | None = field(default=None, metadata={"doc": "CSV path; default <video>.track.csv"})
 
 
@@ -516,7 +563,8 @@ class RenderConfig:
     wall_restitution: float = rng(0.6, 0.0, 1.0, lo_open=True, doc="ball-wall restitution filmed")
     wall_friction: float = rng(0.3, 0.0, None, doc="ball-wall friction filmed")
     backlit: bool = field(default=True, metadata={"doc": "dark balls on a bright background"})
-    mm_per_px: float = rng(0.2, 0.0, None, lo_open=True)
+    mm_per_px: float = rng(0.2, 0.0, None, lo_open=True,
+                           doc="image scale (mm per pixel); film at 0.2 or finer to count collisions")
     noise_grey: float = rng(2.0, 0.0, None, doc="camera noise, grey levels (1 sigma)")
 
 
@@ -537,8 +585,8 @@ class BenchConfig:
                                                "cross-section, longer), or bpr19"})
     scaling: list[str] = field(default_factory=lambda: ["8640"],
                                metadata={"doc": "cases also run on one thread (thread scaling)"})
-    arch: str = field(default="cpu", metadata={"choices": ("cpu", "cuda")})
-    precision: str = field(default="f64", metadata={"choices": ("f64", "f32")})
+    arch: str = field(default="cpu", metadata={"choices": ("cpu", "cuda"), "doc": "Taichi backend"})
+    precision: str = field(default="f64", metadata={"choices": ("f64", "f32"), "doc": "floating point of the engine"})
     threads: int = rng(0, 0, None, doc="CPU threads (0: all cores)")
     skin: float = rng(0.5, 0.0, None, lo_open=True, doc="neighbour skin / largest ball radius")
     settle_s: float = rng(0.3, 0.0, None, doc="settling time before the timed rotation (s)")
@@ -546,7 +594,7 @@ class BenchConfig:
     large_from: int = rng(20_000, 2, None, doc="cases of at least this many balls use the large_* times")
     large_settle_s: float = rng(0.15, 0.0, None, doc="settling time of large cases (s)")
     large_rotate_s: float = rng(0.05, 0.0, None, lo_open=True, doc="timed rotation of large cases (s)")
-    profile_steps: int = rng(50, 1, None)
+    profile_steps: int = rng(50, 1, None, doc="steps each phase is launched alone to time it")
     mm400: bool = field(default=False, metadata={"doc": "the MM400 10 x 10 grid instead of the drum"})
     mm400_duration_s: float = rng(2.0, 0.0, None, lo_open=True, doc="simulated time per MM400 replica (s)")
     peer: str | None = field(default=None, metadata={"choices": (None, "liggghts", "lammps", "liggghts,lammps", "both"),
@@ -564,10 +612,10 @@ class SurrogateConfig:
     cached like any drum run and averaged over dem.window_revolutions after
     dem.startup_revolutions; the training table; the model's cross-validated and held-out error."""
 
-    bounds: SurrogateBounds = field(default_factory=SurrogateBounds)
+    bounds: SurrogateBounds = field(default_factory=SurrogateBounds, metadata={"doc": "the training box (bounds.*)"})
     points: int = rng(64, 8, None, doc="training runs (a power of two: Sobol)")
     holdout: int = rng(16, 0, None, doc="runs held out of training to measure the error")
-    seed: int = rng(0, 0, None)
+    seed: int = rng(0, 0, None, doc="seed of the Sobol and Latin hypercube designs")
     ball_radius_m: float = rng(0.08, 0.0, None, lo_open=True, doc="ball of every run (the diameter ratio sets D)")
     jobs: int = rng(2, 1, None, doc="runs in parallel (one Taichi thread each)")
     folds: int = rng(5, 2, None, doc="k of the k-fold cross-validation")
@@ -610,6 +658,19 @@ COMMANDS = {"track": TrackConfig, "render": RenderConfig, "calibrate": Calibrati
             "bench": BenchConfig, "surrogate": SurrogateConfig, "compare": CompareConfig}
 
 
+def span(lo, hi, lo_open: bool, hi_open: bool) -> str:
+    """A range as an interval, e.g. (0.0, inf]."""
+    left, right = "(" if lo_open else "[", ")" if hi_open else "]"
+    return f"{left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
+
+
+def allowed(meta) -> str:
+    """What a field's metadata allows: 'one of a, b', an interval, or '' (anything of its type)."""
+    if "choices" in meta:
+        return "one of " + ", ".join(map(str, meta["choices"]))
+    return span(*meta["range"]) if "range" in meta else ""
+
+
 def _check_field(path: str, value, meta) -> None:
     if "choices" in meta and value not in meta["choices"]:
         raise ConfigError(f"{path}={value!r} is not one of {list(meta['choices'])}")
@@ -622,10 +683,7 @@ def _check_field(path: str, value, meta) -> None:
         hi is not None and (value > hi or (hi_open and value == hi))
     )
     if bad:
-        left = "(" if lo_open else "["
-        right = ")" if hi_open else "]"
-        span = f"{left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
-        raise ConfigError(f"{path}={value} is outside the allowed range {span}")
+        raise ConfigError(f"{path}={value} is outside the allowed range {span(*meta['range'])}")
 
 
 def check(obj, path: str) -> None:
