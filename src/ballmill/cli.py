@@ -43,6 +43,7 @@ from .config import (
     YieldModelConfig,
     allowed,
     to_object,
+    walk,
 )
 
 log = logging.getLogger("ballmill")
@@ -179,13 +180,9 @@ COMMANDS = {
 def describe(schema, prefix: str = "") -> list[str]:
     """One line per field: name = default, allowed range or choices, and its note."""
     lines = []
-    for f in dataclasses.fields(schema):
-        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
-        if dataclasses.is_dataclass(default):
-            lines += describe(type(default), f"{prefix}{f.name}.")
-            continue
+    for path, f, default in walk(schema, prefix):
         shown = "(required)" if default == "???" else json.dumps(default)
-        lines.append(f"  {prefix}{f.name} = {shown}  {allowed(f.metadata)}  {f.metadata.get('doc', '')}".rstrip())
+        lines.append(f"  {path} = {shown}  {allowed(f.metadata)}  {f.metadata.get('doc', '')}".rstrip())
     return lines
 
 

@@ -671,6 +671,16 @@ def allowed(meta) -> str:
     return span(*meta["range"]) if "range" in meta else ""
 
 
+def walk(schema: type, prefix: str = ""):
+    """(path, field, default) of each field of a schema, a nested dataclass's fields in its place (a.b)."""
+    for f in dataclasses.fields(schema):
+        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        if dataclasses.is_dataclass(default):
+            yield from walk(type(default), f"{prefix}{f.name}.")
+        else:
+            yield f"{prefix}{f.name}", f, default
+
+
 def _check_field(path: str, value, meta) -> None:
     if "choices" in meta and value not in meta["choices"]:
         raise ConfigError(f"{path}={value!r} is not one of {list(meta['choices'])}")
