@@ -13,7 +13,6 @@ import json
 import re
 import typing
 from collections.abc import Callable, Iterator
-from importlib.resources import files
 from pathlib import Path
 
 import pandas as pd
@@ -22,8 +21,8 @@ from .cli import COMMANDS, RUN_GROUPS
 from .columns import RECORD, TABLES
 from .config import COMMANDS as SCHEMAS
 from .config import CONF_DIR, InteractionConfig, MaterialConfig, allowed, walk
+from .data import DATA_DIR
 
-DATA_DIR = Path(str(files("ballmill") / "data"))
 # unit tokens of names (field_m, power_w_per_kg, ...) and the words that may follow a unit after "per"
 UNITS = {"m": "m", "mm": "mm", "m2": "m²", "m3": "m³", "ml": "mL", "s": "s", "min": "min", "h": "h", "yr": "yr",
          "kg": "kg", "t": "t", "g": "g", "mol": "mol", "pa": "Pa", "n": "N", "nm": "N m", "w": "W", "kw": "kW",
