@@ -1,0 +1,121 @@
+"""The documentation: the site builds with no broken link or reference, its reference covers
+every config field with a doc, the version is written once, and the tutorials' commands run as
+written (at the tiny sizes they use), so a tutorial cannot rot."""
+
+import dataclasses
+import importlib.metadata
+import inspect
+import json
+import os
+import re
+import shlex
+import subprocess
+import sys
+import typing
+from pathlib import Path
+
+import pandas as pd
+import tomllib
+
+import ballmill
+from ballmill import config
+from ballmill.columns import undescribed
+from ballmill.reference import PAGES, config_groups, fields, unit
+
+ROOT = Path(__file__).resolve().parents[1]
+QUIET = {"NO_MKDOCS_2_WARNING": "1", "DISABLE_MKDOCS_2_WARNING": "true"}  # the tools' banners
+
+
+def schemas() -> list[tuple[str, type]]:
+    return config_groups() + [(f"{name}: ", schema) for name, schema in config.COMMANDS.items()]
+
+
+def test_every_config_field_has_a_doc():
+    missing = [path for prefix, schema in schemas() for path, f, _ in fields(schema, prefix)
+               if not f.metadata.get("doc", "").strip()]
+    assert not missing, f"fields without a doc (metadata 'doc'): {missing}"
+
+
+def nested(schema: type) -> set[type]:
+    """The schema and every dataclass its fields hold (as a value or a list's items)."""
+    out = {schema}
+    for hint in typing.get_type_hints(schema).values():
+        for kind in (hint, *typing.get_args(hint)):
+            if dataclasses.is_dataclass(kind):
+                out |= nested(kind)
+    return out
+
+
+def test_the_reference_reaches_every_schema_of_config_py():
+    reached = set().union(*(nested(schema) for _, schema in schemas()))
+    defined = {obj for obj in vars(config).values()
+               if inspect.isclass(obj) and dataclasses.is_dataclass(obj) and obj.__module__ == config.__name__}
+    assert defined - reached == set()
+
+
+def test_units_are_read_from_names():
+    assert unit("dem_specific_dissipated_power_w_per_kg") == "W/kg"
+    assert unit("collision_power_w_per_kg_pet") == "W/kg PET"
+    assert unit("evaporator_u_w_per_m2_k") == "W/m² K"
+    assert unit("t_s") == "s" and unit("dem_torque_axis_nm") == "N m"
+    assert unit("balls_per_jar") == "" and unit("fraction_of_critical") == ""
+
+
+def test_the_site_builds_strictly_with_the_generated_reference(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-d", str(tmp_path)], cwd=ROOT,
+                          capture_output=True, text=True, env=os.environ | QUIET, timeout=600, check=False)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert set(PAGES) <= {p.name for p in (tmp_path / "reference").iterdir()}
+    page = {name: (tmp_path / "reference" / name / "index.html").read_text() for name in PAGES}
+    assert "sim.dt_fraction" in page["config"] and "time step as a fraction of Rayleigh" in page["config"]
+    assert "dem_specific_dissipated_power_w_per_kg" in page["columns"]
+    assert all(f"data/{p.name}" in page["data"] for p in (ROOT / "src/ballmill/data").glob("*.csv"))
+    assert all(f'id="{name}"' in page["commands"] for name in ("run", "report", "bench", "calibrate"))
+
+
+def test_the_version_is_written_once_and_printed():
+    version = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+    assert ballmill.__version__ == version == importlib.metadata.version("ballmill")
+    out = subprocess.run([sys.executable, "-m", "ballmill", "--version"], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == f"ballmill {version}"
+    assert f"## [{version}]" in (ROOT / "CHANGELOG.md").read_text()
+
+
+def commands(page: Path) -> list[list[str]]:
+    """Each line of the page's ```bash blocks, as the arguments of `ballmill`."""
+    blocks = re.findall(r"^```bash\n(.*?)^```", page.read_text(), re.MULTILINE | re.DOTALL)
+    lines = [line for block in blocks for line in block.replace("\\\n", " ").splitlines() if line.strip()]
+    assert lines and all(line.startswith("ballmill ") for line in lines), lines
+    return [shlex.split(line)[1:] for line in lines]
+
+
+def run_tutorial(name: str, folder: Path) -> None:
+    for args in commands(ROOT / "docs" / "tutorials" / f"{name}.md"):
+        proc = subprocess.run([sys.executable, "-m", "ballmill", *args], cwd=folder, capture_output=True, text=True,
+                              timeout=900, check=False)
+        assert proc.returncode == 0, f"ballmill {' '.join(args)}\n{proc.stdout[-2000:]}{proc.stderr[-3000:]}"
+
+
+def test_the_first_design_tutorial_runs_and_its_record_is_described(tmp_path):
+    run_tutorial("first-design", tmp_path)
+    record = json.loads((tmp_path / "outputs/runs/design/first/record.json").read_text())
+    assert record["status"] == "ok" and record["ballmill_version"] == ballmill.__version__
+    assert undescribed("record", record) == []
+    for table in ("loads", "energy", "collisions", "trajectories"):
+        assert undescribed(table, pd.read_parquet(tmp_path / record["dem_dir"] / f"{table}.parquet").columns) == []
+    assert "2 finished, 0 failed" in (tmp_path / "outputs/report/design.md").read_text()
+
+
+def test_the_first_sweep_tutorial_runs_two_jobs_and_reports_them(tmp_path):
+    run_tutorial("first-sweep", tmp_path)
+    assert len(list((tmp_path / "outputs/sweeps/fig3b").glob("*/record.json"))) == 2
+    assert "2 finished, 0 failed" in (tmp_path / "outputs/report/fig3b.md").read_text()
+
+
+def test_the_lab_chain_tutorial_recovers_the_filmed_pair_and_validates(tmp_path):
+    run_tutorial("lab-chain", tmp_path)
+    track = pd.read_csv(tmp_path / "outputs/lab/videos/mm400_000.avi.track.csv")
+    assert not track.lost.any()
+    best = json.loads((tmp_path / "outputs/lab/calibration/best.json").read_text())
+    assert best["wall_restitution"] == 0.6 and abs(best["wall_friction"] - 0.3) <= 0.2 + 1e-9
+    assert "2 finished, 0 failed" in (tmp_path / "outputs/report/lab_validation.md").read_text()
