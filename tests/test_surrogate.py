@@ -114,7 +114,7 @@ def test_power_number_definition():
 
 
 # On the shipped training table (DEM runs): the bounds below are set from the measured errors
-# (README, "A surrogate of the DEM"), with room for the GP's fit to move between library versions.
+# (docs/validation.md), with room for the GP's fit to move between library versions.
 # Measured: power number 0.9 % median, 1.4 % at the 90th percentile; collision power number 1.6 %, 3.1 %.
 HELD_OUT_MEDIAN, HELD_OUT_P90 = {"power_number": 0.03, "collision_power_number": 0.05}, \
     {"power_number": 0.06, "collision_power_number": 0.1}

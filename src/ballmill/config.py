@@ -244,7 +244,7 @@ class EconomicsConfig:
 @dataclass
 class MM400Config:
     """Retsch MM400 jar and motion.  No citable source gave the 25 mL jar's inner size or the
-    arm's geometry: defaults are estimates (see README, "Lab scale"), each a field to sweep."""
+    arm's geometry: defaults are estimates (docs/explanation/lab.md), each a field to sweep."""
 
     jar_volume_ml: float = rng(25.0, 0.0, None, lo_open=True,
                                doc="inner volume of the jar (mL); with the bore it sets the jar's length")
@@ -310,7 +310,7 @@ class KineticsLabConfig:
 @dataclass
 class YieldModelConfig:
     """TPA yield of the mill: the seed's BPR line, or yield from the collision dose per kg of
-    PET calibrated on the lab DEM (see README, "Yield from the mechanics")."""
+    PET calibrated on the lab DEM (docs/explanation/yield.md)."""
 
     rule: str = field(default="bpr_line", metadata={
         "choices": ("bpr_line", "specific_energy", "impact_threshold"),

@@ -44,7 +44,7 @@ from .scenario import engine_materials, engine_options, time_step_s
 
 log = logging.getLogger(__name__)
 AXIS = (0.0, 1.0, 0.0)  # drum axis; gravity is -z
-TYPICAL_RATE = 1e7  # particle-steps/s of a drum on one or two cores (README, Benchmark): for the run's ETA line
+TYPICAL_RATE = 1e7  # particle-steps/s of a drum on one or two cores (docs/benchmarks/index.md): for the run's ETA line
 # particle states recorded at instants of the averaging window (charge shape, bed picture): at
 # least 4, and enough for about 20,000 ball positions, at most 40
 SNAPSHOT_BALLS, MIN_SNAPSHOTS, MAX_SNAPSHOTS = 20_000, 4, 40
