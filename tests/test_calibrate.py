@@ -74,8 +74,9 @@ def smooth_response(obs, lab, pairs, materials, interactions, sim, repeats=1):
 @pytest.mark.parametrize("seed", range(3))
 def test_bayesian_search_finds_the_minimum_of_a_smooth_response_in_nine_trials(monkeypatch, seed):
     """The search machinery against a known minimum (the synthetic videos are too noisy for a
-    0.05 resolution, see docs/explanation/lab.md): restitution within 0.05, friction within one grid step
-    (0.2; the statistics hardly depend on it), in as many trials as the test grid has points."""
+    0.05 resolution: docs/explanation/lab.md): restitution within 0.05, friction within one
+    grid step (0.2; the statistics hardly depend on it), in as many trials as the test grid has
+    points."""
     import ballmill.calibrate as cal
 
     monkeypatch.setattr(cal, "simulate_grid", smooth_response)
