@@ -67,7 +67,7 @@ def test_the_site_builds_strictly_with_the_generated_reference(tmp_path):
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     assert set(PAGES) <= {p.name for p in (tmp_path / "reference").iterdir()}
     page = {name: (tmp_path / "reference" / name / "index.html").read_text() for name in PAGES}
-    assert "sim.dt_fraction" in page["config"] and "time step as a fraction of Rayleigh" in page["config"]
+    assert "sim.dt_fraction" in page["config"] and "time step as a fraction of the Rayleigh step" in page["config"]
     assert "dem_specific_dissipated_power_w_per_kg" in page["columns"]
     assert all(f"data/{p.name}" in page["data"] for p in (ROOT / "src/ballmill/data").glob("*.csv"))
     assert all(f'id="{name}"' in page["commands"] for name in ("run", "report", "bench", "calibrate"))
