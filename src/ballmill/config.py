@@ -59,7 +59,8 @@ class SimConfig:
     threads: int = rng(0, 0, None, doc="CPU threads for Taichi; 0 = all cores")
     seed: int = rng(0, 0, None, doc="seed of the initial state (which size takes which lattice site, jar starts)")
     dt_fraction: float = rng(0.2, 0.0, 1.0, lo_open=True, doc=(
-        "time step as a fraction of the Rayleigh step (a warning above 0.4; 1 refused unless allow_unstable_time_step)"))
+        "time step as a fraction of the Rayleigh step (a warning above 0.4; 1 refused unless "
+        "allow_unstable_time_step)"))
     dt_s: float | None = rng(None, 0.0, None, lo_open=True, doc="explicit time step (s), overrides dt_fraction")
     allow_unstable_time_step: bool = field(default=False, metadata={
         "doc": "run even at a time step at or above the Rayleigh step (refused otherwise)"})
