@@ -20,7 +20,8 @@ import tomllib
 import ballmill
 from ballmill import config
 from ballmill.columns import undescribed
-from ballmill.reference import PAGES, config_groups, fields, unit
+from ballmill.config import walk
+from ballmill.reference import PAGES, config_groups, unit
 
 ROOT = Path(__file__).resolve().parents[1]
 QUIET = {"NO_MKDOCS_2_WARNING": "1", "DISABLE_MKDOCS_2_WARNING": "true"}  # the tools' banners
@@ -31,7 +32,7 @@ def schemas() -> list[tuple[str, type]]:
 
 
 def test_every_config_field_has_a_doc():
-    missing = [path for prefix, schema in schemas() for path, f, _ in fields(schema, prefix)
+    missing = [path for prefix, schema in schemas() for path, f, _ in walk(schema, prefix)
                if not f.metadata.get("doc", "").strip()]
     assert not missing, f"fields without a doc (metadata 'doc'): {missing}"
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import typing
 from dataclasses import dataclass, field
 from importlib.resources import files
 from pathlib import Path
@@ -674,13 +675,18 @@ def allowed(meta) -> str:
 
 
 def walk(schema: type, prefix: str = ""):
-    """(path, field, default) of each field of a schema, a nested dataclass's fields in its place (a.b)."""
+    """(path, field, default) of each field of a schema, a nested dataclass's fields in its place
+    (a.b), and after a list of dataclasses (mill.charge) the fields of its items (a[].b)."""
+    hints = typing.get_type_hints(schema)
     for f in dataclasses.fields(schema):
         default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
         if dataclasses.is_dataclass(default):
             yield from walk(type(default), f"{prefix}{f.name}.")
-        else:
-            yield f"{prefix}{f.name}", f, default
+            continue
+        yield f"{prefix}{f.name}", f, default
+        item = typing.get_args(hints[f.name])
+        if item and dataclasses.is_dataclass(item[0]):
+            yield from walk(item[0], f"{prefix}{f.name}[].")
 
 
 def _check_field(path: str, value, meta) -> None:

@@ -8,11 +8,9 @@ docs/gen_reference.py writes PAGES into the site; nothing generated is kept in g
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import re
-import typing
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
@@ -80,19 +78,9 @@ def shown(default) -> str:
     return "required" if default == "???" else f"`{json.dumps(default)}`"
 
 
-def fields(schema: type, prefix: str) -> Iterator[tuple[str, dataclasses.Field, object]]:
-    """config.walk's fields, and after a list of dataclasses (mill.charge) its items' fields (path[].x)."""
-    hints = typing.get_type_hints(schema)
-    for path, f, default in walk(schema, prefix):
-        yield path, f, default
-        item = typing.get_args(hints.get(f.name))
-        if item and dataclasses.is_dataclass(item[0]) and path.endswith(f.name):
-            yield from fields(item[0], f"{path}[].")
-
-
 def field_table(schema: type, prefix: str) -> str:
     rows = [[f"`{path}`", unit(f.name), shown(default), allowed(f.metadata), f.metadata.get("doc", "")]
-            for path, f, default in fields(schema, prefix)]
+            for path, f, default in walk(schema, prefix)]
     return table(["field", "unit", "default", "allowed", "meaning"], rows)
 
 
