@@ -1,89 +1,171 @@
-"""The whole plant: element balances, the recycle loop, the discounted cash flow against a
-textbook example and an annuity, the mill section against the paper's mill costs, and the
-Monte Carlo's limits."""
+"""The whole plant on BioSTEAM: element balances, the recycle, purchase costs against their
+cited correlations worked by hand, NREL's capital and operating factors, the MSP against a
+closed-form annuity, the staffing rule, the footprint's sum and grid factor, and the Monte
+Carlo against an analytic mean."""
 
+import math
 from dataclasses import replace
 
+import biosteam as bst
 import numpy as np
 import pandas as pd
 import pytest
 
 from ballmill.config import EconomicsConfig, PlantConfig
-from ballmill.economics import electricity
 from ballmill.plant import uncertainty
-from ballmill.plant.dcf import cash_flows, minimum_selling_price, npv_usd
-from ballmill.plant.flowsheet import Flowsheet, flowsheet, mill_throughput_kg_per_h
-from ballmill.plant.model import MILL, Mill, evaluate
-from ballmill.plant.streams import ELEMENTS, elements, molar_mass_kg_per_mol
+from ballmill.plant.correlations import price
+from ballmill.plant.model import plant
+from ballmill.plant.study import variants
+from ballmill.plant.system import MillSpec, fresh_pet_kg_per_h
 
-PLANT = PlantConfig()
+CEPCI_2021 = 708.8  # data/cepci.csv: the plant's cost year
+MILL = MillSpec(1313.6, 0.7487, 1.0, 35.0, 130_000.0, {})  # the BPR 19 mill at 1000 kg/h of fresh PET
 ECON = EconomicsConfig()
-MILL_19 = Mill(1313.6, 0.7487, 1.0, 50_000.0, 150_000.0)
 
 
-@pytest.mark.parametrize("conversion, purge", [(0.7487, 0.05), (0.7487, 1.0), (1.0, 1.0), (0.3, 0.5)])
-def test_element_balances_close_over_the_whole_flowsheet(conversion, purge):
-    fs = flowsheet(1000.0, conversion, 1.0, replace(PLANT, recycle_purge_fraction=purge))
-    into = [elements(fs.streams[s]) for s in Flowsheet.INPUTS]
-    out = [elements(fs.streams[s]) for s in Flowsheet.OUTPUTS]
-    for e in ELEMENTS:
-        total_in, total_out = sum(x[e] for x in into), sum(x[e] for x in out)
-        assert total_out == pytest.approx(total_in, rel=1e-9, abs=1e-12)
-    assert sum(elements(fs.streams["bale PET"]).values()) > 0
+@pytest.fixture(scope="module")
+def built():
+    p = plant(MILL, PlantConfig(), ECON)
+    p.base = p.evaluate()
+    return p
 
 
-def test_recycle_fresh_feed_is_the_products_pet_equivalent_plus_the_purge():
-    fs = flowsheet(1000.0, 0.6, 1.0, replace(PLANT, recycle_purge_fraction=0.1))
-    tpa_mol = fs.streams["rTPA"]["tpa"] / molar_mass_kg_per_mol("tpa") / PLANT.tpa_recovery
-    pet_equivalent = tpa_mol * molar_mass_kg_per_mol("pet")
-    assert 1000.0 == pytest.approx(pet_equivalent + fs.streams["purged PET"]["pet"], rel=1e-12)
-    assert fs.mill_pet_kg_per_h == pytest.approx(mill_throughput_kg_per_h(1000.0, 0.6, 0.1))
-    assert fs.mill_pet_kg_per_h == pytest.approx(1000.0 + fs.streams["recycled PET"]["pet"])
+def test_elements_balance_over_the_whole_plant(built):
+    s = built.ps.system
+    for element in ("C", "H", "O", "Na", "S", "N"):
+        into = sum(f.get_atomic_flow(element) for f in s.feeds)
+        out = sum(f.get_atomic_flow(element) for f in s.products)
+        assert out == pytest.approx(into, rel=1e-6), element  # the solvers converge to ~1e-7
 
 
-def test_npv_reproduces_the_textbook_example():
-    """Gitman, Principles of Managerial Finance (Brief, 3rd ed. 2003, p. 346), as numpy-financial
-    documents it: 40,000 invested, 5,000 / 8,000 / 12,000 / 30,000 back, 8 %: NPV 3,065.22."""
-    assert npv_usd(np.array([-40_000, 5_000, 8_000, 12_000, 30_000]), 0.08) == pytest.approx(3065.22, abs=0.005)
+def test_the_recycle_closes_at_the_designed_mill_throughput(built):
+    mill = built.ps.units["R201"]
+    assert mill.ins[0].imass["PET"] == pytest.approx(MILL.pet_kg_per_h, rel=1e-6)
+    fresh = fresh_pet_kg_per_h(MILL.pet_kg_per_h, MILL.conversion, 0.05)  # 1000 kg/h of clean PET
+    assert fresh == pytest.approx(1000.0, rel=1e-4)
+    assert built.ps.streams["bales"].F_mass == pytest.approx(fresh / (0.8 * 0.98), rel=1e-9)  # 80 % PET, 2 % fines
+
+
+def test_correlations_give_their_textbook_prices():
+    """Worked by hand, brought from each correlation's index to CEPCI 2021 (708.8):
+    Seider's forced-circulation body of 18.67 m2 = 200.96 ft2: exp(8.0369 + 0.6994 ln 200.96
+    - 0.00004 ln^2 200.96) = 126,093 $ at CE 567 -> 157,627 $;
+    Seider's FC crystallizer at 800 kg/h = 21.164 short ton/day: 39575 x 21.164^0.56 = 218,655 -> 273,339 $;
+    Towler's vacuum drum filter of 100 m2: -73000 + 93000 x 100^0.3 = 297,240 $ at 532.9 -> 395,353 $."""
+    assert price("forced_circulation_evaporator_seider_2017", 18.67, CEPCI_2021).usd == pytest.approx(157_627, rel=1e-4)
+    assert price("forced_circulation_crystallizer_seider_2017", 800.0, CEPCI_2021).usd == pytest.approx(273_339,
+                                                                                                         rel=1e-4)
+    assert price("vacuum_drum_filter_towler_2010", 100.0, CEPCI_2021).usd == pytest.approx(395_353, rel=1e-4)
+    split = price("vacuum_drum_filter_towler_2010", 300.0, CEPCI_2021)  # above the 180 m2 range: two of 150 m2
+    assert split.parallel == 2 and split.usd == pytest.approx(2 * price("vacuum_drum_filter_towler_2010", 150.0,
+                                                                        CEPCI_2021).usd)
+
+
+def test_the_large_units_are_priced_by_their_correlations(built):
+    u = built.ps.units
+    ft2 = [max(150.0, 10.7639 * a) for a in u["E401"]._As]  # a body below the 150 ft2 range is priced at 150
+    bodies = sum(math.exp(8.0369 + 0.6994 * math.log(a) - 0.00004 * math.log(a) ** 2) for a in ft2) * CEPCI_2021 / 567
+    assert u["E401"].purchase_costs["Evaporators"] == pytest.approx(bodies, rel=1e-9)
+    crystals = u["C401"].crystals_kg_per_h * 24 / 907.18474
+    assert u["C401"].purchase_cost == pytest.approx(39575 * crystals**0.56 * CEPCI_2021 / 567, rel=1e-5)  # 6-digit unit factor
+    area = u["S201"].design_results["Individual area"]  # ft2: BioSTEAM prices Seider's rotary-drum vacuum filter
+    vessel = math.exp(11.796 - 0.1905 * math.log(area) + 0.0554 * math.log(area) ** 2) * CEPCI_2021 / 567
+    assert u["S201"].purchase_costs["Vessels"] == pytest.approx(vessel * u["S201"].parallel["self"], rel=1e-9)
+    assert u["R201"].purchase_cost == MILL.purchase_cost_usd
+    assert u["R201"].installed_cost == pytest.approx(2.3 * MILL.purchase_cost_usd, rel=1e-12)
+
+
+def test_a_cost_factor_scales_its_units_purchase_cost(built):
+    tank = built.ps.units["T201"]
+    before = tank.purchase_cost
+    tank.cost_factor = 1.5
+    built.evaluate()
+    assert tank.purchase_cost == pytest.approx(1.5 * before, rel=1e-9)
+    tank.cost_factor = 1.0
+    assert built.evaluate()["msp_usd_per_kg"] == pytest.approx(built.base["msp_usd_per_kg"], rel=1e-6)  # recycle tol
+
+
+def test_capital_and_fixed_costs_follow_nrels_factors(built):
+    """Direct cost = installed + 17.5 % of ISBL (warehouse 4, site 9, piping 4.5); depreciable =
+    1.5 x direct (prorateable 10, field 10, construction 20, contingency 10 %); fixed capital +=
+    10 % of direct; yearly: 0.7 % of fixed capital, 3 % of ISBL, labour with a 90 % burden."""
+    t = built.tea
+    osbl = sum(u.installed_cost for u in t.units if isinstance(u, (bst.StorageTank, bst.CoolingTower)))
+    isbl = t.installed_equipment_cost - osbl
+    direct = t.installed_equipment_cost + 0.175 * isbl
+    assert t.TDC == pytest.approx(1.5 * direct, rel=1e-12)
+    assert t.FCI == pytest.approx(1.6 * direct, rel=1e-12)
+    # 0.25 + 0.25 (filters) + 0.5 (centrifuge) + 2 x 0.5 (dryers) + 1/6 (crystallizer) + 0.25 (evaporator)
+    # + 3 x 0.5 (mill, dissolver, acidifier) + 0.25 (column) + 0.25 (stripper) + 0.25 (granulator)
+    # + 0.5 (bale floor) + 0.25 (cooling tower) = 5.417 operators per shift x 4.5 = 24.4 -> 25
+    assert t.staff == 25
+    labour = 25 * 65460 * 1.15
+    assert t.FOC == pytest.approx(0.007 * t.FCI + 0.03 * isbl + 1.9 * labour, rel=1e-12)
 
 
 def test_msp_without_tax_is_the_capital_recovery_annuity():
-    cfg = replace(PLANT, tax_rate=0.0, construction_fractions=[1.0], working_capital_fraction=0.0, plant_life_yr=20)
-    fixed, opex, q, r = 1e7, 2e6, 5000.0, cfg.discount_rate
-    crf = r / (1 - (1 + r) ** -20)
-    assert minimum_selling_price(q, opex, fixed, 0.0, cfg) == pytest.approx((opex + fixed * crf) / q, rel=1e-12)
+    """No tax, start-up or debt: NPV = 0 at price P when P Q - C (yearly, 30 years from the start
+    year) pays back the fixed capital spent 8/60/32 % in the three years before (compounded to
+    the last of them, year 0) and the working capital lent at year 0 and returned in year 30."""
+    cfg = replace(PlantConfig(), tax_rate=0.0, startup_months=0.0, loan_fraction=0.0)
+    p = plant(MILL, cfg, ECON, name="annuity")
+    msp = p.evaluate()["msp_usd_per_kg"]
+    t, r = p.tea, 0.10
+    q = p.rtpa.F_mass * t.operating_hours
+    byproducts = sum(s.cost for s in t.products if s is not p.rtpa) * t.operating_hours
+    cost = t.AOC - byproducts
+    spent = t.FCI * (0.08 * (1 + r) ** 2 + 0.60 * (1 + r) + 0.32) + t.working_capital * (1 - (1 + r) ** -30)
+    annuity = r / (1 - (1 + r) ** -30)
+    assert msp == pytest.approx((cost + spent * annuity) / q, rel=1e-6)
 
 
-def test_npv_at_the_msp_is_zero():
-    plant = evaluate(MILL_19, PLANT, ECON)
-    flows = cash_flows(plant.msp_usd_per_t, plant.rtpa_t_per_yr, sum(plant.opex.values()),
-                       plant.capital["fixed_capital_usd"], plant.capital["working_capital_usd"], PLANT)
-    assert abs(npv_usd(flows, PLANT.discount_rate)) < 1e-6 * plant.capital["fixed_capital_usd"]
-    assert 0.5 < plant.msp_usd_per_t / 1000 < 5.0  # $/kg rTPA: the order of virgin TPA's price (1.14)
+def test_footprint_adds_up_and_takes_the_states_grid(built):
+    parts = built.footprint()
+    assert parts.pop("total") == pytest.approx(sum(parts.values()), rel=1e-9)
+    s = built.ps.streams
+    assert parts["NaOH"] == pytest.approx(s["NaOH"].F_mass * 2.05 / s["rTPA"].F_mass, rel=1e-9)  # GREET 2023
+    assert parts["EG_credit"] == pytest.approx(-s["EG"].F_mass * 2.2938 / s["rTPA"].F_mass, rel=1e-9)
+    florida = plant(MILL, PlantConfig(), ECON, region="FL", name="florida")
+    florida.evaluate()
+    kwh = florida.ps.system.power_utility.rate
+    # GREET 2023 US 0.4181 kg/kWh x Florida's eGRID2022 818.562 / US 827.52 lb/MWh = 0.413574 kg/kWh
+    assert florida.footprint()["electricity"] == pytest.approx(kwh * 0.413574 / florida.rtpa.F_mass, rel=1e-5)
 
 
-def test_full_conversion_without_recycle_keeps_the_mills_own_costs():
-    mill = Mill(1000.0, 1.0, 1.0, 38_000.0, 119_904.0)
-    plant = evaluate(mill, replace(PLANT, recycle_purge_fraction=1.0), ECON)
-    assert plant.flows.streams["bale PET"]["pet"] == 1000.0 == plant.flows.mill_pet_kg_per_h
-    assert plant.opex["electricity_mill"] == pytest.approx(electricity(38_000.0, 1000.0, ECON)["electricity_usd_per_yr"],
-                                                          rel=1e-12)
-    assert plant.equipment.set_index("unit").purchase_cost_usd[MILL] == 119_904.0
+def test_monte_carlo_mean_of_one_uniform_price_is_the_msp_at_its_mean(built, monkeypatch):
+    """MSP is affine in the NaOH price (a variable cost, no loss in any year at these prices),
+    so the mean over a uniform NaOH price is the MSP at its midpoint, 669 $/t."""
+    one = pd.DataFrame([{"parameter": "price.naoh", "distribution": "uniform", "scale": "absolute", "low": 426.0,
+                         "high": 912.0, "basis": "", "source": "", "year": 2026, "url": ""}])
+    monkeypatch.setattr(uncertainty, "ranges", lambda p: one)
+    m = uncertainty.model(built, 0.0)
+    draws, _ = uncertainty.monte_carlo(m, 64, seed=3)
+    again, _ = uncertainty.monte_carlo(uncertainty.model(built, 0.0), 64, seed=3)
+    assert draws["price.naoh"].equals(again["price.naoh"])  # the same draws; each plant converges to ~1e-6 of its MSP
+    assert np.allclose(draws.MSP, again.MSP, rtol=1e-5)
+    built.ps.streams["NaOH"].price = 0.669
+    at_mean = built.evaluate()["msp_usd_per_kg"]
+    built.ps.streams["NaOH"].price = 0.608
+    assert draws.MSP.mean() == pytest.approx(at_mean, rel=2e-4)
+    assert draws.MSP.std() > 0.05  # the NaOH price moves the MSP by about 0.3 $/kg over its range
 
 
-def test_monte_carlo_without_spread_returns_the_deterministic_msp(monkeypatch):
-    flat = pd.DataFrame({"parameter": ["prices.naoh", "plant.staff", "dem.power"], "low_factor": [1.0, 1.0, np.nan],
-                         "high_factor": [1.0, 1.0, np.nan], "distribution": ["triangular", "triangular", "normal"]})
-    monkeypatch.setattr(uncertainty, "table", lambda name: flat)
-    cfg = replace(PLANT, monte_carlo_draws=20)
-    draws = uncertainty.monte_carlo(MILL_19, 0.0, cfg, ECON)
-    assert np.allclose(draws, evaluate(MILL_19, PLANT, ECON).msp_usd_per_t / 1000, rtol=1e-12)
+def test_the_tornados_ends_are_the_plant_at_those_values(built, monkeypatch):
+    m = uncertainty.model(built, 1.0)
+    t = uncertainty.tornado(m).set_index("parameter")
+    built.ps.streams["NaOH"].price = 0.912
+    high = built.evaluate()["msp_usd_per_kg"]
+    built.ps.streams["NaOH"].price = 0.608
+    assert t.loc["price.naoh", "msp_high_usd_per_kg"] == pytest.approx(high, rel=1e-6)
+    assert t.msp_swing_usd_per_kg.is_monotonic_decreasing
 
 
-def test_monte_carlo_is_seeded_and_tornado_ranks_swings():
-    cfg = replace(PLANT, monte_carlo_draws=30)
-    a = uncertainty.monte_carlo(MILL_19, 1000.0, cfg, ECON)
-    assert np.array_equal(a, uncertainty.monte_carlo(MILL_19, 1000.0, cfg, ECON))
-    assert a.std() > 0
-    t = uncertainty.tornado(MILL_19, 1000.0, PLANT, ECON)
-    assert t.swing_usd_per_kg.is_monotonic_decreasing and len(t) == len(uncertainty.table("plant_uncertainty.csv"))
+def test_variants_undo_one_choice_each(built):
+    v = variants(built).set_index("variant")
+    virgin_eg = plant(MILL, replace(PlantConfig(), eg_price_fraction=1.0), ECON, name="virgin_eg").evaluate()
+    assert v.loc["EG credited at the virgin price", "msp_usd_per_kg"] == pytest.approx(virgin_eg["msp_usd_per_kg"],
+                                                                                       rel=1e-6)
+    fixed = plant(MILL, replace(PlantConfig(), staffing="fixed", staff=20), ECON, name="fixed").evaluate()
+    assert v.loc["20 staff at every scale", "msp_usd_per_kg"] == pytest.approx(fixed["msp_usd_per_kg"], rel=1e-6)
+    assert v.loc["base", "msp_usd_per_kg"] == pytest.approx(built.evaluate()["msp_usd_per_kg"], rel=1e-6)
+    assert np.isfinite(v.msp_usd_per_kg).all() and np.isfinite(v.gwp_kg_per_kg).all()

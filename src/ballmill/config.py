@@ -345,56 +345,83 @@ class YieldModelConfig:
 
 @dataclass
 class PlantConfig:
-    """The plant around the mill: unit-operation parameters, utility prices, capital and
-    operating cost factors and the discounted cash flow (defaults and their sources:
-    conf/plant/nrel.yaml; uncertainty ranges: data/plant_uncertainty.csv)."""
+    """The plant around the mill, on BioSTEAM: feed preparation, the units' design choices, the
+    cost year, NREL's TEA convention, the staffing rule and the Monte Carlo (defaults and their
+    sources: conf/plant/nrel.yaml; prices, factors and ranges: data/)."""
 
+    feed_form: str = field(default="flake", metadata={
+        "choices": ("flake", "powder"),
+        "doc": "what the mill takes: granulated flake, or flake pulverised to the fine powder the lab used"})
+    bale_pet_fraction: float = rng(0.8, 0.0, 1.0, lo_open=True,
+                                   doc="PET in a tonne of bales (the rest, caps, labels and dirt, is sorted out)")
+    granulation_kwh_per_t: float = rng(132.0, 0.0, None, doc="granulator's electricity per tonne of bales")
+    flake_loss_fraction: float = rng(0.02, 0.0, 1.0, hi_open=True, doc="PET lost as fines in granulating and sorting")
+    pulverising_kwh_per_t: float = rng(200.0, 0.0, None, doc="pulveriser's electricity per tonne of flake (powder)")
+    powder_loss_fraction: float = rng(0.02, 0.0, 1.0, hi_open=True, doc="PET lost in pulverising (powder)")
+    granulator_cost: str = field(default="hammer_mill_seider_2017", metadata={
+        "doc": "the granulator's cost correlation, a row of data/cost_correlations.csv"})
+    pulveriser_cost: str = field(default="pulverizer_towler_2010", metadata={
+        "doc": "the pulveriser's cost correlation, a row of data/cost_correlations.csv"})
     recycle_purge_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True,
                                         doc="share of the unreacted PET purged (1: no recycle)")
     dissolution_water_kg_per_kg_na2tpa: float = rng(8.0, 0.0, None, lo_open=True, doc="water that dissolves the Na2TPA")
+    tank_residence_time_h: float = rng(1.0, 0.0, None, lo_open=True,
+                                       doc="residence time that sizes the dissolver and the acidifier (h)")
+    pet_cake_moisture: float = rng(0.3, 0.0, 1.0, hi_open=True, doc="water in the unreacted-PET cake (mass fraction)")
     h2so4_to_stoichiometric: float = rng(1.02, 1.0, None,
                                          doc="H2SO4 dosed / the acid that neutralises the Na2TPA and the NaOH left")
-    tpa_recovery: float = rng(0.98, 0.0, 1.0, lo_open=True, doc="share of the TPA the filter and wash recover")
+    tpa_recovery: float = rng(0.98, 0.0, 1.0, lo_open=True, doc="share of the TPA the filter keeps")
+    tpa_cake_moisture: float = rng(0.2, 0.0, 1.0, hi_open=True, doc="water in the washed TPA cake (mass fraction)")
     wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, None, doc="wash water on the TPA cake")
-    cake_water_kg_per_kg_tpa: float = rng(0.25, 0.0, None, doc="water the washed cake carries to the dryer")
-    eg_recovery: float = rng(0.95, 0.0, 1.0, doc="share of the EG the column recovers")
-    dryer_steam_kg_per_kg_water: float = rng(1.3, 0.0, None, lo_open=True, doc="dryer steam per kg of water evaporated")
-    evaporator_steam_economy: float = rng(3.0, 0.0, None, lo_open=True, doc="kg water evaporated per kg steam")
-    eg_column_steam_kg_per_kg_eg: float = rng(2.0, 0.0, None, doc="EG column steam per kg of EG")
-    cooling_water_rise_k: float = rng(10.0, 0.0, None, lo_open=True, doc="temperature rise of the cooling water (K)")
-    shredding_energy_kwh_per_t: float = rng(132.0, 0.0, None, doc="shredder's electricity per tonne of bale PET")
-    tank_residence_time_h: float = rng(1.0, 0.0, None, lo_open=True,
-                                       doc="residence time that sizes the dissolver and acidifier (h)")
-    filter_flux_kg_per_m2_h: float = rng(200.0, 0.0, None, lo_open=True, doc="solids per filter area")
-    evaporator_u_w_per_m2_k: float = rng(1500.0, 0.0, None, lo_open=True,
-                                         doc="overall heat-transfer coefficient of the evaporator")
-    evaporator_delta_t_k: float = rng(15.0, 0.0, None, lo_open=True,
-                                      doc="temperature difference across the evaporator's tubes (K)")
-    steam_usd_per_t: float = rng(25.0, 0.0, None, doc="steam price")
-    cooling_water_usd_per_t: float = rng(0.05, 0.0, None, doc="cooling water price")
-    process_water_usd_per_t: float = rng(0.25, 0.0, None, doc="process water price")
-    na2so4_usd_per_t: float = field(default=0.0, metadata={"doc": "sale (> 0) or disposal (< 0) of the salt"})
-    residue_usd_per_t: float = rng(-50.0, None, 0.0, doc="disposal of purged PET and column residue (< 0)")
-    equipment_cost_factor: float = rng(1.0, 0.0, None, lo_open=True, doc="multiplies every purchase cost")
-    installation_factor: float = rng(3.2, 1.0, None, doc="ISBL / purchase cost, carbon steel")
-    stainless_factor: float = rng(1.3, 1.0, None, doc="material factor of the wetted units")
-    site_factor: float = rng(0.175, 0.0, None, doc="warehouse, site development, extra piping / ISBL")
-    indirect_factor: float = rng(0.6, 0.0, None, doc="engineering, construction, contingency, other / direct cost")
+    dry_moisture: float = rng(0.002, 0.0, 1.0, hi_open=True, doc="water left in the dried rTPA and salt (mass fraction)")
+    evaporated_water_fraction: float = rng(0.95, 0.0, 1.0, lo_open=True, hi_open=True,
+                                           doc="share of the mother liquor's water the evaporator removes")
+    evaporator_cost: str = field(default="forced_circulation_evaporator_seider_2017", metadata={
+        "doc": "the evaporator bodies' cost correlation (per body), a row of data/cost_correlations.csv"})
+    crystallizer_cost: str = field(default="forced_circulation_crystallizer_seider_2017", metadata={
+        "doc": "the Na2SO4 crystallizer's cost correlation, a row of data/cost_correlations.csv"})
+    salt_cake_moisture: float = rng(0.05, 0.0, 1.0, hi_open=True, doc="water in the centrifuged salt (mass fraction)")
+    eg_stripper_recovery: float = rng(0.95, 0.0, 1.0, lo_open=True, hi_open=True,
+                                      doc="share of the liquor's EG the stripper sets out to vaporise")
+    eg_stripper_pressure_pa: float = rng(101325.0, 1000.0, None, doc="EG stripper's pressure (Pa)")
+    eg_column_water_recovery: float = rng(0.999, 0.5, 1.0, hi_open=True, doc="water to the EG column's top")
+    eg_column_eg_recovery: float = rng(0.995, 0.5, 1.0, hi_open=True, doc="EG to the EG column's bottom")
+    eg_column_reflux_to_minimum: float = rng(1.2, 1.0, None, lo_open=True, doc="reflux / minimum reflux")
+    eg_column_pressure_pa: float = rng(101325.0, 1000.0, None, doc="EG column's pressure (Pa)")
+    eg_price_fraction: float = rng(0.7, 0.0, 1.0, doc="recovered EG's price / virgin MEG's (purity discount)")
+    na2so4_usd_per_t: float = rng(0.0, -1e4, 1e4, doc="the salt's value: sale (> 0) or disposal (< 0)")
+    cost_year: int = rng(2021, 1950, 2100, doc="dollar year of the plant: equipment by CEPCI, the prices' year")
+    mill_bare_module_factor: float = rng(2.3, 1.0, None, doc="installed / purchase cost of the ball mill")
+    warehouse: float = rng(0.04, 0.0, None, doc="of ISBL installed cost")
+    site_development: float = rng(0.09, 0.0, None, doc="of ISBL installed cost")
+    additional_piping: float = rng(0.045, 0.0, None, doc="of ISBL installed cost")
+    prorateable: float = rng(0.10, 0.0, None, doc="prorateable costs, of the direct cost")
+    field_expenses: float = rng(0.10, 0.0, None, doc="of the direct cost")
+    construction: float = rng(0.20, 0.0, None, doc="home office and construction fees, of the direct cost")
+    contingency: float = rng(0.10, 0.0, None, doc="project contingency, of the direct cost")
+    other_indirect: float = rng(0.10, 0.0, None, doc="start-up, permits and other indirect costs, of the direct cost")
     working_capital_fraction: float = rng(0.05, 0.0, None, doc="of the fixed capital")
-    staff: int = rng(20, 0, None, doc="employees")
-    salary_usd_per_yr: float = rng(60000.0, 0.0, None, doc="salary per employee")
+    staffing: str = field(default="per_unit", metadata={
+        "choices": ("per_unit", "fixed"),
+        "doc": "per_unit: operators per shift from each unit (data/staffing.csv); fixed: plant.staff"})
+    staff: int = rng(20, 0, None, doc="operating staff with staffing=fixed")
+    operators_per_position: float = rng(4.5, 1.0, None, doc="staff per operator position around the clock")
+    operator_wage_usd_per_yr: float = rng(65460.0, 0.0, None, doc="operator's mean annual wage")
+    supervision_fraction: float = rng(0.15, 0.0, None, doc="supervisory and clerical labour, of operating labour")
     labour_burden: float = rng(0.9, 0.0, None, doc="overhead on salaries")
-    maintenance_fraction: float = rng(0.03, 0.0, None, doc="of ISBL per year")
+    maintenance_fraction: float = rng(0.03, 0.0, None, doc="of ISBL installed cost per year")
     insurance_fraction: float = rng(0.007, 0.0, None, doc="property insurance and tax, of the fixed capital per year")
     plant_life_yr: int = rng(30, 1, 100, doc="years of operation")
     construction_fractions: list[float] = field(default_factory=lambda: [0.08, 0.60, 0.32], metadata={
         "doc": "capital spent in each construction year (sums to 1)"})
-    discount_rate: float = rng(0.10, 0.0, 1.0, doc="real, after tax")
+    startup_months: float = rng(3.0, 0.0, 12.0, doc="start-up: half the sales, 75 % of variable costs")
+    loan_fraction: float = rng(0.4, 0.0, 1.0, hi_open=True, doc="share of the capital financed by debt")
+    loan_interest: float = rng(0.08, 0.0, 1.0, doc="the loan's yearly interest")
+    loan_years: int = rng(10, 1, 100, doc="years to repay the loan")
+    discount_rate: float = rng(0.10, 0.0, 1.0, lo_open=True, doc="internal rate of return (real, after tax)")
     tax_rate: float = rng(0.21, 0.0, 1.0, hi_open=True, doc="income tax rate")
     depreciation_file: str = field(default="macrs_7yr.csv", metadata={"doc": "depreciation schedule, a data/ table"})
-    cost_file: str = field(default="equipment_costs.csv", metadata={
-        "doc": "equipment cost correlations, a data/ table"})
-    monte_carlo_draws: int = rng(2000, 0, None, doc="draws of the MSP's Monte Carlo (0: none)")
+    monte_carlo_draws: int = rng(2000, 0, None, doc="draws of the Monte Carlo (0: none)")
     seed: int = rng(0, 0, None, doc="seed of the Monte Carlo draws")
 
     def __post_init__(self):

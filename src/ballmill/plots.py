@@ -244,49 +244,68 @@ def plot_dissipation_spectra(spectra: pd.DataFrame, thresholds_j=()):
     return fig
 
 
-MSP_GROUPS = {  # cost categories of the MSP breakdown, as stacked in the figures
-    "capital": ["msp_capital_usd_per_kg"],
-    "PET": ["msp_pet_bale_usd_per_kg"],
-    "NaOH + H2SO4": ["msp_naoh_usd_per_kg", "msp_h2so4_usd_per_kg"],
-    "utilities": ["msp_electricity_mill_usd_per_kg", "msp_electricity_shredder_usd_per_kg", "msp_steam_usd_per_kg",
-                  "msp_cooling_water_usd_per_kg", "msp_process_water_usd_per_kg", "msp_waste_disposal_usd_per_kg"],
-    "labour, maintenance, insurance": ["msp_labour_usd_per_kg", "msp_maintenance_usd_per_kg",
-                                       "msp_insurance_and_tax_usd_per_kg"],
-    "EG + salt credits": ["msp_eg_credit_usd_per_kg", "msp_na2so4_credit_usd_per_kg"],
+MSP_GROUPS = {  # cost categories of the MSP breakdown ($/kg rTPA), as stacked in the figures
+    "capital and return": ["msp_capital_usd_per_kg"],
+    "PET bales": ["msp_bales_usd_per_kg"],
+    "NaOH + H2SO4": ["msp_naoh_usd_per_kg", "msp_sulfuric_acid_usd_per_kg"],
+    "steam, power, water": ["msp_steam_usd_per_kg", "msp_electricity_usd_per_kg", "msp_dissolution_water_usd_per_kg",
+                            "msp_wash_water_usd_per_kg", "msp_cooling_tower_chemicals_usd_per_kg"],
+    "disposal, wastewater": ["msp_sorting_residue_usd_per_kg", "msp_grinding_fines_usd_per_kg",
+                             "msp_purged_pet_usd_per_kg", "msp_residue_usd_per_kg", "msp_treated_water_usd_per_kg"],
+    "labour, maintenance, insurance": ["msp_fixed_operating_usd_per_kg"],
+    "EG + salt": ["msp_eg_usd_per_kg", "msp_na2so4_usd_per_kg"],
+}
+GWP_GROUPS = {  # contributors to the footprint (kg CO2e/kg rTPA)
+    "NaOH": ["gwp_naoh_kg_per_kg"],
+    "H2SO4, water, bales": ["gwp_sulfuric_acid_kg_per_kg", "gwp_dissolution_water_kg_per_kg", "gwp_wash_water_kg_per_kg",
+                            "gwp_cooling_tower_makeup_water_kg_per_kg", "gwp_bales_kg_per_kg"],
+    "steam": ["gwp_steam_kg_per_kg"],
+    "electricity": ["gwp_electricity_kg_per_kg"],
+    "residues, wastewater": ["gwp_sorting_residue_kg_per_kg", "gwp_grinding_fines_kg_per_kg", "gwp_purged_pet_kg_per_kg",
+                             "gwp_residue_kg_per_kg", "gwp_treated_water_kg_per_kg"],
+    "EG + salt credits": ["gwp_eg_credit_kg_per_kg", "gwp_na2so4_credit_kg_per_kg"],
 }
 
 
-def plot_msp(table: pd.DataFrame, by: str, label: str):
-    """Minimum selling price of rTPA per case: the breakdown stacked (credits below zero), the
-    MSP with its 5-95 % Monte Carlo band, and the mill section's share."""
-    t = table.sort_values(by if by != "region" else "plant_fresh_pet_kg_per_h")
+def stacked(ax, t: pd.DataFrame, groups: dict[str, list[str]], total: str, band: str, unit: str, yardstick: str):
+    """One panel: `groups` stacked per case (negative below zero), the total with its 5-95 %
+    band, and the virgin product's value as a dashed line."""
     x = np.arange(len(t))
-    fig, ax = plt.subplots(figsize=(8, 4.5))
     up, down = np.zeros(len(t)), np.zeros(len(t))
-    for k, (name, cols) in enumerate(MSP_GROUPS.items()):
+    for k, (name, cols) in enumerate(groups.items()):
         v = t[[c for c in cols if c in t]].sum(axis=1).to_numpy()
-        base = np.where(v >= 0, up, down)
-        ax.bar(x, v, bottom=base, color=f"C{k}", label=name, width=0.7)
+        ax.bar(x, v, bottom=np.where(v >= 0, up, down), color=f"C{k}", label=name, width=0.7)
         up, down = up + np.maximum(v, 0), down + np.minimum(v, 0)
-    err = [t.msp_usd_per_kg - t.msp_p5_usd_per_kg, t.msp_p95_usd_per_kg - t.msp_usd_per_kg]
-    ax.errorbar(x, t.msp_usd_per_kg, yerr=err, fmt="ko", ms=4, capsize=3, label="MSP (5-95 % band)")
+    lo, hi = t[band.format(5)], t[band.format(95)]
+    ax.errorbar(x, t[total], yerr=[t[total] - lo, hi - t[total]], fmt="ko", ms=4, capsize=3,
+                label="base (5-95 % band)")
+    ax.plot(x, t[band.format(50)], "w^", mec="k", ms=5, label="median")
+    ax.axhline(t[yardstick].iloc[0], color="0.3", ls="--", lw=1, label="virgin TPA")
     ax.axhline(0, color="k", lw=0.6)
-    ax.set_xticks(x, [f"{v:g}" if isinstance(v, float) else str(v) for v in t[by]])
-    ax.set_xlabel(label)
-    ax.set_ylabel("$ per kg rTPA")
-    ax2 = ax.twinx()
-    ax2.plot(x, 100 * t.msp_mill_share, "s--", color="0.3", ms=4)
-    ax2.set_ylabel("mill section's share of the MSP (%, squares)")
-    ax2.set_ylim(0, max(5.0, 120 * t.msp_mill_share.max()))
-    ax.legend(fontsize=7, loc="upper right", ncol=2)
-    ax.set_title("Minimum selling price of rTPA and where it goes")
+    ax.set_ylabel(unit)
+    ax.legend(fontsize=6, loc="upper right", ncol=2)
+
+
+def plot_msp(table: pd.DataFrame, by: str, label: str):
+    """Minimum selling price (left) and cradle-to-gate footprint (right) of rTPA per case:
+    each broken down, with its Monte Carlo band and median and the virgin TPA's value."""
+    t = table.sort_values(by if by != "region" else "plant_fresh_pet_kg_per_h")
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.8))
+    stacked(left, t, MSP_GROUPS, "msp_usd_per_kg", "msp_p{}_usd_per_kg", "$ per kg rTPA", "virgin_tpa_usd_per_kg")
+    stacked(right, t, GWP_GROUPS, "gwp_total_kg_per_kg", "gwp_p{}_kg_per_kg", "kg CO2e per kg rTPA",
+            "virgin_tpa_gwp_kg_per_kg")
+    for ax, title in ((left, "Minimum selling price"), (right, "Cradle-to-gate footprint")):
+        ax.set_xticks(np.arange(len(t)), [f"{v:g}" if isinstance(v, float) else str(v) for v in t[by]])
+        ax.set_xlabel(label)
+        ax.set_title(title)
     fig.tight_layout()
     return fig
 
 
-def plot_tornado(tornado: pd.DataFrame, base_usd_per_kg: float):
-    """MSP at each input's low and high end, the others at base (largest swing on top)."""
-    t = tornado.iloc[::-1]
+def plot_tornado(tornado: pd.DataFrame, base_usd_per_kg: float, rows: int = 20):
+    """MSP at each input's low and high end, the others at base (the `rows` largest swings,
+    largest on top)."""
+    t = tornado.head(rows).iloc[::-1]
     fig, ax = plt.subplots(figsize=(7, 0.3 * len(t) + 1.2))
     y = np.arange(len(t))
     ax.barh(y, t.msp_low_usd_per_kg - base_usd_per_kg, left=base_usd_per_kg, color="C0", label="input at low end")

@@ -7,6 +7,7 @@ exist and lists the failed jobs.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +23,6 @@ from .files import read_json
 from .impacts import energy_spectrum
 from .plots import (
     FIGURES,
-    MSP_GROUPS,
     plot_dissipation_spectra,
     plot_impact_spectra,
     plot_lab_validation,
@@ -34,7 +34,8 @@ from .plots import (
 from .yields import pet_fraction
 
 SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv",
-           "yield_lab_conditions.csv", "equipment_costs.csv", "macrs_7yr.csv", "plant_uncertainty.csv",
+           "yield_lab_conditions.csv", "cost_correlations.csv", "macrs_7yr.csv", "plant_uncertainty.csv",
+           "plant_chemicals.csv", "staffing.csv", "ghg_factors.csv", "egrid2022_states.csv", "published_anchors.csv",
            "measured_mill_power.csv"]
 
 
@@ -261,36 +262,81 @@ def yield_calibration_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_
     return lines
 
 
-PLANT_COLUMNS = ["bpr", "region", "plant_fresh_pet_kg_per_h", "plant_mill_pet_kg_per_h", "yield_percent",
-                 "plant_rtpa_t_per_yr", "plant_fixed_capital_usd", "plant_opex_usd_per_yr", "msp_usd_per_kg",
-                 "msp_p5_usd_per_kg", "msp_p95_usd_per_kg", "msp_capital_usd_per_kg", "msp_mill_section_usd_per_kg",
-                 "msp_mill_share"]
+PLANT_COLUMNS = ["bpr", "region", "plant_fresh_pet_kg_per_h", "plant_bales_kg_per_h", "plant_mill_pet_kg_per_h",
+                 "yield_percent", "plant_rtpa_t_per_yr", "plant_staff", "plant_fixed_capital_usd", "msp_usd_per_kg",
+                 "msp_p5_usd_per_kg", "msp_p50_usd_per_kg", "msp_p95_usd_per_kg", "gwp_total_kg_per_kg",
+                 "gwp_p5_kg_per_kg", "gwp_p50_kg_per_kg", "gwp_p95_kg_per_kg", "msp_mill_share"]
+SECTION_OF_AREA = {"1": "feed preparation", "2": "reaction", "3": "TPA", "4": "salt and EG", "5": "wastewater",
+                   "6": "storage", "C": "cooling tower"}
+
+
+def plant_sections(units: pd.DataFrame) -> pd.DataFrame:
+    """Installed cost, power and heat by section of the plant (a unit's area: its ID's first digit)."""
+    area = units.unit.str.extract(r"^[A-Z]+(\d)")[0].fillna(units.unit.str[0])
+    cols = ["purchase_cost_usd", "installed_cost_usd", "power_kw", "heating_kw", "cooling_kw"]
+    out = units.assign(section=area.map(SECTION_OF_AREA)).groupby("section", sort=False)[cols].sum()
+    return out.reset_index()
+
+
+def items(case: pd.Series, prefix: str, suffix: str, exclude: tuple[str, ...]) -> pd.Series:
+    """The breakdown of a record: prefix<item>suffix columns, less the Monte Carlo's percentiles."""
+    out = {}
+    for k, v in case.items():
+        item = k[len(prefix):-len(suffix)] if k.startswith(prefix) and k.endswith(suffix) else ""
+        if item and item not in exclude and not re.fullmatch(r"p\d+", item) and pd.notna(v):
+            out[item] = v
+    return pd.Series(out, dtype=float)
 
 
 def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
-    """MSP per case with its band and breakdown; for one case (the paper's BPR 19, else the
-    largest feed): what dominates, the tornado chart, the stream table and the equipment."""
+    """MSP and footprint per case with their bands; for one case (the paper's BPR 19, else the
+    largest feed): the breakdowns, the units and their cross-checked prices by section, what
+    each modelling choice moves, the tornado, the rank correlations, and the published anchors."""
     cols = [c for c in PLANT_COLUMNS if c in ok and ok[c].notna().any()]
-    breakdown = [c for cols in MSP_GROUPS.values() for c in cols if c in ok]
-    write_table(ok[cols + [c for c in breakdown if c not in cols]], out_dir / f"{name}_msp")
+    breakdown = [c for c in ok if c.startswith(("msp_", "gwp_")) and c not in cols]
+    write_table(ok[cols + breakdown], out_dir / f"{name}_msp")
     at19 = ok[(ok.bpr - 19).abs() < 1e-9] if ok.region.isna().all() else ok.iloc[:0]
     case = (at19 if len(at19) else ok.sort_values("plant_fresh_pet_kg_per_h")).iloc[-1]
     job = Path(case.job_dir)
-    streams = pd.read_csv(job / "streams.csv", index_col=0)
-    equipment = pd.read_csv(job / "equipment.csv")
-    tornado = pd.read_csv(job / "tornado.csv")
-    for stem, frame in (("streams", streams.reset_index()), ("equipment", equipment), ("tornado", tornado)):
+    tables = {stem: pd.read_csv(job / f"{stem}.csv") for stem in ("units", "variants", "tornado", "rank_correlations")
+              if (job / f"{stem}.csv").is_file()}
+    tables["sections"] = plant_sections(tables["units"])
+    tables["streams"] = pd.read_csv(job / "streams.csv")
+    for stem, frame in tables.items():
         write_table(frame, out_dir / f"{name}_{stem}")
-    save_figure(plot_tornado(tornado, case.msp_usd_per_kg), out_dir / f"{name}_tornado")
+    save_figure(plot_tornado(tables["tornado"], case.msp_usd_per_kg), out_dir / f"{name}_tornado")
     label = case_label(case.to_dict())
-    shares = {k: case[k] / case.msp_usd_per_kg for k in breakdown}
-    top = sorted(shares.items(), key=lambda kv: -abs(kv[1]))[:4]
-    return ["## Whole plant: minimum selling price of rTPA", "", ok[cols].to_markdown(index=False, floatfmt=".4g"), "",
-            f"### {label}: what dominates", "",
-            ", ".join(f"{k.removeprefix('msp_').removesuffix('_usd_per_kg')} {100 * v:.0f} %" for k, v in top)
-            + " of the MSP.", "", f"![tornado]({name}_tornado.png)", "",
-            "Stream table (kg/h):", "", streams.to_markdown(floatfmt=".4g"), "",
-            "Equipment:", "", equipment.to_markdown(index=False, floatfmt=".4g"), ""]
+    msp = items(case, "msp_", "_usd_per_kg", ("mill_section",))
+    gwp = items(case, "gwp_", "_kg_per_kg", ("total",))
+    anchors = table("published_anchors.csv")
+    band = {k: case.get(k, np.nan) for k in ("msp_p5_usd_per_kg", "msp_p50_usd_per_kg", "msp_p95_usd_per_kg",
+                                             "gwp_p5_kg_per_kg", "gwp_p50_kg_per_kg", "gwp_p95_kg_per_kg")}
+    headline = (f"MSP {case.msp_usd_per_kg:.3f} $/kg rTPA (Monte Carlo median {band['msp_p50_usd_per_kg']:.3f}, "
+                f"5-95 % {band['msp_p5_usd_per_kg']:.3f}-{band['msp_p95_usd_per_kg']:.3f}); footprint "
+                f"{case.gwp_total_kg_per_kg:.2f} kg CO2e/kg (median {band['gwp_p50_kg_per_kg']:.2f}, 5-95 % "
+                f"{band['gwp_p5_kg_per_kg']:.2f}-{band['gwp_p95_kg_per_kg']:.2f}); virgin TPA: "
+                f"{case.virgin_tpa_usd_per_kg:.3f} $/kg and {case.virgin_tpa_gwp_kg_per_kg:.2f} kg CO2e/kg.")
+    units_title = ("Units (purchase cost by BioSTEAM or the cited correlation; a second published correlation beside "
+                   "the large ones):")
+    lines = ["## Whole plant: minimum selling price and footprint of rTPA", "",
+             ok[cols].to_markdown(index=False, floatfmt=".4g"), "",
+             f"### {label}", "", headline, "",
+             "MSP by item ($/kg rTPA; credits negative):", "",
+             msp.sort_values(key=abs, ascending=False).to_frame("usd_per_kg").to_markdown(floatfmt=".4f"), "",
+             "Footprint by item (kg CO2e/kg rTPA; credits negative):", "",
+             gwp.sort_values(key=abs, ascending=False).to_frame("kg_per_kg").to_markdown(floatfmt=".4f"), "",
+             "By section:", "", tables["sections"].to_markdown(index=False, floatfmt=".4g"), "",
+             units_title, "", tables["units"].to_markdown(index=False, floatfmt=".4g"), "",
+             "What each modelling choice moves (each undone alone):", "",
+             tables["variants"].to_markdown(index=False, floatfmt=".4f"), "",
+             f"![tornado]({name}_tornado.png)", ""]
+    if "rank_correlations" in tables:
+        top = tables["rank_correlations"].reindex(tables["rank_correlations"].msp_rho.abs().sort_values(
+            ascending=False).index).head(10)
+        lines += ["Spearman rank correlations with the MSP and the footprint (the ten strongest on the MSP):", "",
+                  top.to_markdown(index=False, floatfmt=".3f"), ""]
+    lines += ["Published values beside ours:", "", anchors.to_markdown(index=False), ""]
+    return lines
 
 
 def cheapest_mill_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:

@@ -1,90 +1,142 @@
-"""One plant: the flowsheet around a built mill, its costs and the minimum selling price of rTPA.
+"""One plant: the BioSTEAM system around a designed mill, its TEA and footprint, as a record
+and tables (streams, units, the cross-check of the large units' prices, variants).
 
-The mill is the DEM's (its PET throughput, power and purchase cost come from the design);
-the fresh feed follows from its conversion per pass and the purge.  `evaluate` is cheap (no
-DEM), so the Monte Carlo and the sensitivity study call it thousands of times.
+`Plant.evaluate()` simulates and solves the minimum selling price (MSP); the Monte Carlo and
+the tornado (uncertainty.py) vary the same objects in place.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, field, replace
 
+import biosteam as bst
 import pandas as pd
 
-from ..config import EconomicsConfig, PlantConfig
-from .costs import capital, operating_costs, purchase_costs
-from .dcf import minimum_selling_price
-from .flowsheet import Flowsheet, flowsheet
-from .streams import stream_table
+from .correlations import price
+from .footprint import STEAM, breakdown_kg_per_kg, characterize, factors
+from .system import MillSpec, PlantSystem, build
+from .tea import PlantTEA, cepci, configure_utilities, prices_usd_per_kg
 
-MILL = "ball mill"
-MILL_CATEGORIES = ("electricity_mill",)
-
-
-@dataclass(frozen=True)
-class Mill:
-    """The built mill: PET throughput (kg/h), conversion per pass (0-1], NaOH ratio, power (W)
-    and purchase cost ($, target year)."""
-
-    pet_kg_per_h: float
-    conversion: float
-    naoh_to_stoichiometric: float
-    power_w: float
-    purchase_cost_usd: float
+# the large units priced a second way: unit ID -> (correlation key, its size from the unit)
+CROSS_CHECKS = {
+    "R201": ("ball_mill_towler_2010", lambda u: u.ins[0].F_mass),
+    "T201": ("jacketed_agitated_reactor_towler_2010", lambda u: u.design_results["Total volume"] / u.parallel.get("self", 1)),
+    "R301": ("jacketed_agitated_reactor_towler_2010", lambda u: u.design_results["Total volume"] / u.parallel.get("self", 1)),
+    "S201": ("vacuum_drum_filter_towler_2010", lambda u: u.design_results["Area"] * 0.09290304),
+    "S301": ("vacuum_drum_filter_towler_2010", lambda u: u.design_results["Area"] * 0.09290304),
+    "D301": ("direct_rotary_dryer_towler_2010", lambda u: u.design_results["Peripheral drum area"]),
+    "E401": ("vertical_tube_evaporator_towler_2010", None),
+    "C401": ("draft_tube_crystallizer_seider_2017", lambda u: u.design_results["Crystals"]),
+}
+ITEMS = {"E401": "Evaporators"}  # the cost item a cross-check replaces (else the unit's whole purchase cost)
 
 
 @dataclass
 class Plant:
-    flows: Flowsheet
-    units: list[dict]  # one row per unit (costs.purchase_costs), the mill first
-    capital: dict
-    opex: dict[str, float]
-    rtpa_t_per_yr: float
-    msp_usd_per_t: float
+    """A built plant: the system, its TEA, the prices and factors it was built with."""
 
-    def record(self) -> dict:
-        """Flat record: feeds, products, capital, yearly costs and the MSP with its breakdown ($/kg rTPA)."""
-        t = self.rtpa_t_per_yr
-        opex_total = sum(self.opex.values())
-        capital_part = self.msp_usd_per_t - opex_total / t
-        isbl = {row["unit"]: row["isbl_usd"] for row in self.units}
-        mill_share = isbl[MILL] / self.capital["isbl_usd"]
-        mill_section = (capital_part + self.opex["maintenance"] / t) * mill_share + self.opex["electricity_mill"] / t
-        return {
-            "plant_fresh_pet_kg_per_h": self.flows.streams["bale PET"]["pet"],
-            "plant_mill_pet_kg_per_h": self.flows.mill_pet_kg_per_h,
-            "plant_rtpa_t_per_yr": t, "plant_eg_kg_per_h": self.flows.streams["EG"]["eg"],
-            **{f"plant_{k}": v for k, v in self.capital.items()},
-            **{f"plant_isbl_{u.lower().replace(' ', '_')}_usd": v for u, v in isbl.items()},
-            **{f"plant_{k}": v for k, v in self.flows.utilities.items()},
-            "plant_opex_usd_per_yr": opex_total, **{f"plant_opex_{k}_usd_per_yr": v for k, v in self.opex.items()},
-            "msp_usd_per_kg": self.msp_usd_per_t / 1000.0,
-            "msp_capital_usd_per_kg": capital_part / 1000.0,
-            **{f"msp_{k}_usd_per_kg": v / t / 1000.0 for k, v in self.opex.items()},
-            "msp_mill_section_usd_per_kg": mill_section / 1000.0,
-            "msp_mill_share": mill_section / self.msp_usd_per_t,
-        }
+    ps: PlantSystem
+    tea: PlantTEA
+    mill: MillSpec
+    cfg: object
+    econ: object
+    region: str | None
+    prices: dict[str, float]
+    cf: dict[str, float]
+    warnings: list[str] = field(default_factory=list)
 
     @property
-    def equipment(self) -> pd.DataFrame:
-        """The units as a table: size, parallel units, purchase cost and ISBL ($)."""
-        return pd.DataFrame(self.units)
+    def rtpa(self) -> bst.Stream:
+        return self.ps.streams["rTPA"]
+
+    def evaluate(self) -> dict[str, float]:
+        """Simulate, then the MSP ($/kg rTPA) and the footprint (kg CO2e/kg rTPA)."""
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            self.ps.system.simulate()
+        self.warnings = sorted({str(w.message).replace("\x1b", "") for w in caught})
+        return {"msp_usd_per_kg": self.tea.solve_price(self.rtpa), "gwp_kg_per_kg": self.footprint()["total"]}
+
+    def footprint(self) -> dict[str, float]:
+        return breakdown_kg_per_kg(self.ps.system, self.ps.streams, self.rtpa)
+
+    def units_table(self) -> pd.DataFrame:
+        """Per unit: type, purchase and installed cost ($), power (kW), heat duty (kW) and the
+        second correlation's purchase cost where one is cross-checked."""
+        rows = []
+        for u in sorted(self.ps.system.cost_units, key=lambda u: u.ID):
+            check = self.cross_check(u)
+            rows.append({"unit": u.ID, "type": type(u).__name__, "parallel": int(u.parallel.get("self", 1)),
+                         "purchase_cost_usd": u.purchase_cost, "installed_cost_usd": u.installed_cost,
+                         "power_kw": u.power_utility.rate,
+                         "heating_kw": sum(h.duty for h in u.heat_utilities if h.duty > 0 and h.agent.ID in STEAM) / 3600,
+                         "cooling_kw": -sum(h.duty for h in u.heat_utilities if h.duty < 0) / 3600.0,
+                         **check})
+        return pd.DataFrame(rows)
+
+    def cross_check(self, u) -> dict:
+        """The unit's purchase cost by its second correlation (cost year $), if it has one."""
+        if u.ID not in CROSS_CHECKS:
+            return {}
+        key, size = CROSS_CHECKS[u.ID]
+        index = cepci(self.cfg.cost_year)
+        if size is None:  # the evaporator: body by body
+            second = sum(price(key, a, index).usd for a in u._As if a > 0)
+        else:
+            second = price(key, size(u), index).usd
+        base = u.purchase_costs.get(ITEMS.get(u.ID), u.purchase_cost) / u.cost_factor
+        return {"second_correlation": key, "second_purchase_cost_usd": second, "second_over_base": second / base}
 
     def stream_table(self) -> pd.DataFrame:
-        return stream_table(self.flows.streams)
+        """kg/h of each chemical in each of the plant's streams that cross its boundary or join units."""
+        s = self.ps.system
+        table = {st.ID: {c.ID: st.imass[c.ID] for c in st.chemicals} for st in s.streams if st.F_mass > 0}
+        df = pd.DataFrame(table)
+        df.loc["total"] = df.sum()
+        return df.rename_axis("chemical_kg_per_h")
+
+    def record(self, msp: float) -> dict:
+        """Flat record: flows, capital, yearly costs, staff, the MSP and its breakdown ($/kg) and
+        the footprint's (kg CO2e/kg)."""
+        t, streams = self.tea, self.ps.streams
+        kg_per_yr = self.rtpa.F_mass * t.operating_hours
+        voc = {s.ID: s.cost * t.operating_hours for s in t.feeds if s.price}
+        sales = {s.ID: -s.cost * t.operating_hours for s in t.products if s.price and s is not self.rtpa}
+        utilities = {"electricity": t.system.power_utility.cost * t.operating_hours,
+                     "steam": sum(h.cost for h in t.system.heat_utilities) * t.operating_hours}
+        costs = {**voc, **sales, **utilities, "fixed_operating": t.FOC}  # $/yr; credits negative
+        mill = self.ps.units["R201"]
+        out = {"plant_bales_kg_per_h": streams["bales"].F_mass, "plant_mill_pet_kg_per_h": mill.ins[0].imass["PET"],
+               "plant_rtpa_t_per_yr": kg_per_yr / 1000.0, "plant_eg_kg_per_h": streams["EG"].F_mass,
+               "plant_na2so4_kg_per_h": streams["Na2SO4"].F_mass, "plant_staff": t.staff,
+               "plant_purchase_cost_usd": t.purchase_cost, "plant_installed_cost_usd": t.installed_equipment_cost,
+               "plant_fixed_capital_usd": t.FCI, "plant_working_capital_usd": t.working_capital,
+               "plant_total_capital_usd": t.TCI, "plant_voc_usd_per_yr": t.VOC, "plant_foc_usd_per_yr": t.FOC,
+               "plant_labour_usd_per_yr": t.labour_usd_per_yr * (1 + self.cfg.labour_burden),
+               "plant_electricity_kw": t.system.power_utility.rate, "plant_mill_power_kw": mill.power_utility.rate,
+               "plant_steam_kw": sum(h.duty for h in t.system.heat_utilities if h.duty > 0) / 3600.0,
+               "msp_usd_per_kg": msp, "msp_capital_usd_per_kg": msp - sum(costs.values()) / kg_per_yr}
+        out |= {f"msp_{name.lower()}_usd_per_kg": usd / kg_per_yr for name, usd in costs.items()}
+        share = mill.installed_cost / t.installed_equipment_cost
+        section = (out["msp_capital_usd_per_kg"] * share + (mill.installed_cost * self.cfg.maintenance_fraction
+                   + mill.power_utility.cost * t.operating_hours) / kg_per_yr)
+        out |= {"msp_mill_section_usd_per_kg": section, "msp_mill_share": section / msp,
+                "virgin_tpa_usd_per_kg": self.prices["tpa"], "virgin_tpa_gwp_kg_per_kg": self.cf["virgin_tpa"]}
+        out |= {f"gwp_{k.lower()}_kg_per_kg": v for k, v in self.footprint().items()}
+        return out
 
 
-def evaluate(mill: Mill, cfg: PlantConfig, econ: EconomicsConfig, prices: dict[str, float] | None = None) -> Plant:
-    """The plant around `mill`; `prices` overrides rows of data/prices.csv ($/t)."""
-    fresh = mill.pet_kg_per_h * (1.0 - (1.0 - cfg.recycle_purge_fraction) * (1.0 - mill.conversion))
-    flows = flowsheet(fresh, mill.conversion, mill.naoh_to_stoichiometric, cfg)
-    equipment = [{"unit": MILL, "size": mill.pet_kg_per_h / 1000.0, "size_unit": "t/h PET", "parallel_units": 1,
-                  "below_range": False, "material": "carbon_steel",
-                  "purchase_cost_usd": mill.purchase_cost_usd * cfg.equipment_cost_factor},
-                 *purchase_costs(flows.sizes, cfg, econ)]
-    cap = capital(equipment, cfg)
-    opex = operating_costs(flows.streams, flows.utilities, mill.power_w, cap["isbl_usd"], cap["fixed_capital_usd"],
-                           cfg, econ, prices or {})
-    rtpa = flows.streams["rTPA"]["tpa"] * econ.hours_per_year / 1000.0
-    msp = minimum_selling_price(rtpa, sum(opex.values()), cap["fixed_capital_usd"], cap["working_capital_usd"], cfg)
-    return Plant(flows, equipment, cap, opex, rtpa, msp)
+def plant(mill: MillSpec, cfg, econ, region: str | None = None, name: str = "plant") -> Plant:
+    """The plant around `mill` (cfg: PlantConfig, copied: the uncertainty varies the copy;
+    econ: EconomicsConfig; region: a state code for its grid)."""
+    cfg = replace(cfg)
+    index = cepci(cfg.cost_year)
+    prices = prices_usd_per_kg(econ.prices_file)
+    prices["na2so4"] = cfg.na2so4_usd_per_t / 1000.0
+    configure_utilities(prices, econ.electricity_usd_per_kwh, index)
+    ps = build(mill, cfg, prices, index, name)
+    cf = factors()
+    characterize(ps.streams, cf, region)
+    tea = PlantTEA(ps.system, cfg, econ.hours_per_year, cfg.cost_year)
+    return Plant(ps, tea, mill, cfg, econ, region, prices, cf)

@@ -3,7 +3,7 @@
 Annualised cost = capital recovery factor x installed mill cost + electricity per year, the
 factor over plant.plant_life_yr at plant.discount_rate, installed = purchase cost (the
 economics group's correlation; with capacity_scaling=holdup it grows with the charge held) x
-plant.installation_factor.  Each trial is a scale-up at the trial's knobs evaluated as
+plant.mill_bare_module_factor, as the plant installs it.  Each trial is a scale-up at the trial's knobs evaluated as
 `study=design` does, by the surrogate (milliseconds; under an energy rule the residence time
 is solved for the target yield).  Optuna's TPE sampler (seeded: the same seed, the same
 optimum) searches; trials outside the surrogate's hull, or whose mill cannot be built, are
@@ -52,7 +52,7 @@ def design_knobs(scale: ScaleupConfig, design) -> dict[str, float]:
 def annualised_cost_usd_per_yr(record: dict, plant: PlantConfig) -> float:
     """Capital recovered over the plant's life (installed mill) + the mill's electricity per year."""
     recovery = -npf.pmt(plant.discount_rate, plant.plant_life_yr, 1.0)
-    return recovery * record["purchase_cost_usd"] * plant.installation_factor + record["electricity_usd_per_yr"]
+    return recovery * record["purchase_cost_usd"] * plant.mill_bare_module_factor + record["electricity_usd_per_yr"]
 
 
 def minimise(objective: Callable[[dict[str, float]], tuple[float, float]], ranges: dict[str, tuple[float, float]],
