@@ -188,26 +188,36 @@ RECORD = {
         "bpr_basis": "the BPR's powder: PET + NaOH, or PET alone",
         "calibration_key": "hash of the lab conditions: the calibration's cache folder",
     }),
-    "plant": ("study=plant: the plant around the mill (the mill itself in the design columns)", {
-        "plant_fresh_pet_kg_per_h": "fresh PET fed to the plant", "plant_mill_pet_kg_per_h": "PET through the mill, "
-                                                                                          "recycle included",
+    "plant": ("study=plant: the plant around the mill on BioSTEAM (the mill itself in the design columns)", {
+        "plant_fresh_pet_kg_per_h": "clean PET the mill needs from outside", "plant_mill_pet_kg_per_h": "PET through "
+                                                                                                 "the mill, recycle included",
         "recycle_purge_fraction": "share of the unreacted PET purged",
-        "plant_rtpa_t_per_yr": "rTPA produced per year", "plant_eg_kg_per_h": "EG product",
-        "plant_purchase_cost_total_usd": "purchase cost of all equipment", "plant_isbl_usd": "inside battery limits "
-                                                                                         "(installed) cost",
-        "plant_direct_cost_usd": "direct cost: ISBL + site", "plant_fixed_capital_usd": "fixed capital investment",
-        "plant_working_capital_usd": "working capital",
-        "plant_isbl_<unit>_usd": "installed cost of one unit of the flowsheet",
-        "plant_<utility>": "a utility's use, unit in its name (steam, cooling and process water, shredder power)",
-        "plant_opex_usd_per_yr": "operating cost per year, credits subtracted",
-        "plant_opex_<category>_usd_per_yr": "one category of the operating cost per year",
-        "msp_usd_per_kg": "minimum selling price of rTPA (net present value zero)",
-        "msp_capital_usd_per_kg": "the capital's part of the MSP",
-        "msp_<category>_usd_per_kg": "one operating category's part of the MSP (credits negative)",
+        "plant_bales_kg_per_h": "bales bought (PET and non-PET)", "plant_rtpa_t_per_yr": "rTPA produced per year",
+        "plant_eg_kg_per_h": "EG product", "plant_na2so4_kg_per_h": "Na2SO4 product",
+        "plant_staff": "operating staff (the staffing rule)",
+        "plant_purchase_cost_usd": "purchase cost of all units", "plant_installed_cost_usd": "installed cost of all units",
+        "plant_fixed_capital_usd": "fixed capital investment", "plant_working_capital_usd": "working capital",
+        "plant_total_capital_usd": "fixed and working capital",
+        "plant_voc_usd_per_yr": "variable operating cost per year (BioSTEAM's VOC)",
+        "plant_foc_usd_per_yr": "fixed operating cost per year: labour, maintenance, insurance",
+        "plant_labour_usd_per_yr": "labour with supervision and burden per year",
+        "plant_electricity_kw": "the plant's electricity", "plant_mill_power_kw": "the mill's (from its DEM)",
+        "plant_steam_kw": "steam heat bought", "plant_design_warnings": "BioSTEAM's out-of-range notes "
+                                                                      "(design_warnings.txt)",
+        "plant_s": "wall time of the plant, its variants, tornado and Monte Carlo",
+        "monte_carlo_s": "wall time of the Monte Carlo",
+        "msp_usd_per_kg": "minimum selling price of rTPA (net present value zero at the internal rate of return)",
+        "msp_capital_usd_per_kg": "what of the MSP pays for capital, its return and taxes",
+        "msp_<item>_usd_per_kg": "one stream's or utility's part of the MSP per kg rTPA (a feed, a waste, a "
+                                 "co-product negative, steam, electricity, fixed_operating)",
         "msp_mill_section_usd_per_kg": "the mill's part: its share of capital and maintenance, its electricity",
         "msp_mill_share": "the mill section's share of the MSP",
-        "msp_p5_usd_per_kg": "5th percentile of the MSP's Monte Carlo", "msp_p50_usd_per_kg": "its median",
-        "msp_p95_usd_per_kg": "its 95th percentile",
+        "msp_p<q>_usd_per_kg": "the q-th percentile (5, 50, 95) of the MSP's Monte Carlo",
+        "gwp_total_kg_per_kg": "cradle-to-gate footprint, kg CO2e per kg rTPA",
+        "gwp_<item>_kg_per_kg": "one input's, utility's or waste's part of it (co-product credits negative)",
+        "gwp_p<q>_kg_per_kg": "the q-th percentile (5, 50, 95) of the footprint's Monte Carlo",
+        "virgin_tpa_usd_per_kg": "virgin TPA's price (data/prices.csv)",
+        "virgin_tpa_gwp_kg_per_kg": "virgin TPA's footprint (data/ghg_factors.csv)",
     }),
     "cheapest mill": (("study=cheapest_mill: the paper's mill and the optimum (design columns prefixed paper_ and "
                        "optimum_ by the surrogate, paper_dem_ and optimum_dem_ as the DEM confirms them)"), {
