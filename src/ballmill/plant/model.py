@@ -69,7 +69,7 @@ class Plant:
             check = self.cross_check(u)
             rows.append({"unit": u.ID, "type": type(u).__name__, "parallel": int(u.parallel.get("self", 1)),
                          "purchase_cost_usd": u.purchase_cost, "installed_cost_usd": u.installed_cost,
-                         "power_kw": u.power_utility.rate,
+                         "priced_below_range": getattr(u, "below_range", None), "power_kw": u.power_utility.rate,
                          "heating_kw": sum(h.duty for h in u.heat_utilities if h.duty > 0 and h.agent.ID in STEAM) / 3600,
                          "cooling_kw": -sum(h.duty for h in u.heat_utilities if h.duty < 0) / 3600.0,
                          **check})
@@ -81,12 +81,12 @@ class Plant:
             return {}
         key, size = CROSS_CHECKS[u.ID]
         index = cepci(self.cfg.cost_year)
-        if size is None:  # the evaporator: body by body
-            second = sum(price(key, a, index).usd for a in u._As if a > 0)
-        else:
-            second = price(key, size(u), index).usd
+        sizes = [a for a in u._As if a > 0] if size is None else [size(u)]  # the evaporator: body by body
+        parts = [price(key, each, index) for each in sizes]
         base = u.purchase_costs.get(ITEMS.get(u.ID), u.purchase_cost) / u.cost_factor
-        return {"second_correlation": key, "second_purchase_cost_usd": second, "second_over_base": second / base}
+        second = sum(p.usd for p in parts)
+        return {"second_correlation": key, "second_purchase_cost_usd": second, "second_over_base": second / base,
+                "second_below_range": any(p.below_range for p in parts)}
 
     def stream_table(self) -> pd.DataFrame:
         """kg/h of each chemical in each of the plant's streams that cross its boundary or join units."""

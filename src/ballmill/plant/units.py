@@ -100,6 +100,7 @@ class SizeReduction(bst.Unit):
     def _cost(self):
         p = price(self.key, self.design_results["Feed"], self.cepci)
         self.baseline_purchase_costs["Size reduction"] = p.usd
+        self.below_range = p.below_range
 
 
 @scaled
@@ -131,6 +132,7 @@ class Evaporator(bst.MultiEffectEvaporator):
         self.design_results["BioSTEAM bodies"] = own
         bodies = [price(self.key, area, self.cepci) for area in self._As if area > 0]
         self.baseline_purchase_costs["Evaporators"] = sum(p.usd for p in bodies)
+        self.below_range = any(p.below_range for p in bodies)
         self.parallel["Evaporators"] = 1
 
 
@@ -160,7 +162,9 @@ class SaltCrystallizer(bst.Unit):
         self.design_results["Crystals"] = self.crystals_kg_per_h
 
     def _cost(self):
-        self.baseline_purchase_costs["Crystallizer"] = price(self.key, self.design_results["Crystals"], self.cepci).usd
+        p = price(self.key, self.design_results["Crystals"], self.cepci)
+        self.baseline_purchase_costs["Crystallizer"] = p.usd
+        self.below_range = p.below_range
 
 
 def cod_kg_per_kg(chemical) -> float:
