@@ -1,5 +1,5 @@
 """A drum's averaging window that ends on the standard error of its mean power: never before
-one revolution of averaging, never beyond the configured duration, the reason recorded, and the
+one revolution of averaging, never beyond the configured window, the reason recorded, and the
 power of a stopped run the same as a full run's over the same samples."""
 
 from dataclasses import replace
@@ -8,7 +8,7 @@ import pytest
 from helpers import DRUM_SIM, MATERIALS, PAIRS, small_drum
 
 from ballmill.dem import Results
-from ballmill.drum import drum_speed_rpm, simulate_drum
+from ballmill.drum import CONFIGURED, drum_speed_rpm, simulate_drum
 
 SIM = replace(DRUM_SIM, settle_s=0.3, duration_s=1.6, steady_after_s=0.2)  # averaging from 0.5 s to 1.9 s
 
@@ -33,7 +33,7 @@ def test_a_loose_target_stops_after_one_revolution_of_averaging(runs):
 def test_an_unreachable_target_runs_the_whole_duration(runs):
     summary = runs["strict"].summary
     assert summary["simulated_s"] == pytest.approx(SIM.settle_s + SIM.duration_s, abs=SIM.sample_every_s)
-    assert summary["averaging_ended_by"] == "the configured duration (sim.duration_s)"
+    assert summary["averaging_ended_by"] == CONFIGURED
 
 
 def test_the_stopped_runs_power_is_the_full_runs_over_the_same_samples(runs):

@@ -15,8 +15,6 @@ from ballmill.cli import main
 from ballmill.dem.engine import Engine
 from ballmill.vision.frames import write_frames
 
-FAST = ["sim.settle_s=0.05", "sim.duration_s=0.1", "sim.steady_after_s=0.0"]
-
 
 @pytest.fixture
 def inputs(tmp_path_factory):
@@ -114,15 +112,22 @@ RUN = [
     (["sim.dt_fraction=1.0"], r"sim: the time step is 1.00 x the Rayleigh step .* set sim.allow_unstable_time_step"),
     (["sim.dt_fraction=0"], r"sim.dt_fraction=0.0 is outside the allowed range \(0.0, 1.0\]"),
     (["sim.dt_s=0.01"], r"sim: the time step is \d+\.\d\d x the Rayleigh step"),
-    (["sim.steady_after_s=0.6", "sim.duration_s=0.6"], r"sim.steady_after_s=0.6 leaves no samples to average"),
-    (["sim.sample_every_s=1.0"], r"sim.sample_every_s=1.0 gives fewer than 2 samples"),
+    (["sim=test", "sim.steady_after_s=0.6", "sim.duration_s=0.6"], r"sim.steady_after_s=0.6 leaves no samples to average"),
+    (["sim.window_revolutions=0"], r"sim.window_revolutions=0.0 is outside the allowed range \(0.0, inf\]"),
+    (["sim.startup_revolutions=-1"], r"sim.startup_revolutions=-1.0 is outside the allowed range \[0.0, inf\]"),
+    (["sim.window_revolutions=nan"], r"sim.window_revolutions=nan is not a finite number"),
+    (["sim.window_revolutions=0.001"], r"sim.sample_every_s=0.01 gives fewer than 2 samples in the averaging window"),
+    (["sim.duration_s=5"], r"sim: the start-up and the averaging window are given in revolutions .* give one pair"),
+    (["sim=test", "sim.window_revolutions=2"], r"sim: the start-up and the averaging window are given in revolutions"),
+    (["sim.window_revolutions=null"], r"sim: the start-up and the averaging window are given in revolutions"),
+    (["sim=test", "sim.sample_every_s=1.0"], r"sim.sample_every_s=1.0 gives fewer than 2 samples"),
     (["sim.threads=999"], r"sim.threads=999 is more than this machine's \d+ cores"),
     (["sim.threads=-1"], r"sim.threads=-1 is outside the allowed range \[0, inf\]"),
     (["sim.arch=gpu"], r"sim.arch='gpu' is not one of \['cpu', 'cuda'\]"),
     (["sim.precision=f16"], r"sim.precision='f16' is not one of \['f64', 'f32'\]"),
     (["sim.max_contacts_per_particle=4"], r"sim.max_contacts_per_particle=4 is too few for a bed of \d+ balls .* use at least 12"),
     (["sim.dt_fractoin=0.1"], r"Could not override 'sim.dt_fractoin': Key 'dt_fractoin' not in 'SimConfig'"),
-    (["sim=huge"], r"Could not find 'sim/huge'; available: ci, lab, paper"),
+    (["sim=huge"], r"Could not find 'sim/huge'; available: lab, paper, steady, test"),
     (["study=foo"], r"Could not find 'study/foo'; available: cheapest_mill, design, drum, lab"),
     (["+sweep=fig99"], r"Could not find 'sweep/fig99'; available: .*fig3b, fig4, lab_validation"),
     (["materials.steel.density_kg_per_m3=-1"], r"materials.steel.density_kg_per_m3=-1.0 is outside .*\(0.0, inf\]"),
@@ -192,7 +197,7 @@ RUN = [
 
 @pytest.mark.parametrize("overrides, message", RUN, ids=[" ".join(o) for o, _ in RUN])
 def test_run_refuses(cli, inputs, overrides, message):
-    status, line = cli("run", *FAST, *[o.format(inputs=inputs) for o in overrides])
+    status, line = cli("run", *[o.format(inputs=inputs) for o in overrides])
     assert status == 2
     assert line.startswith("error: ") and re.search(message, line), line
 

@@ -19,8 +19,8 @@ import sys
 logging.basicConfig(level=logging.INFO)
 from ballmill.config import BallSizeConfig, DrumConfig, InteractionConfig, LinerConfig, MaterialConfig, SimConfig
 from ballmill.drum import simulate_drum
-sim = SimConfig(shear_modulus_scale=1e-2, settle_s=0.1, duration_s=0.5, sample_every_s=0.01, steady_after_s=0.1,
-                checkpoint_every_wall_s=0.2)
+sim = SimConfig(shear_modulus_scale=1e-2, settle_s=0.1, startup_revolutions=None, window_revolutions=None,
+                steady_after_s=0.1, duration_s=0.5, sample_every_s=0.01, checkpoint_every_wall_s=0.2)
 drum = {drum}
 simulate_drum(drum, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, sim, sys.argv[1])
 """

@@ -33,7 +33,7 @@ def test_a_wheel_installed_in_a_fresh_venv_runs_a_sweep_and_its_report(tmp_path)
     (site / "deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
     where = sh(str(python), "-c", "import ballmill; print(ballmill.__file__)", cwd=tmp_path)
     assert where.startswith(str(env)), where
-    sh(str(python), "-m", "ballmill", "run", "-m", "scaleup.bpr=19,20", "sim=ci", "sim.settle_s=0.05",
+    sh(str(python), "-m", "ballmill", "run", "-m", "scaleup.bpr=19,20", "sim=test", "sim.settle_s=0.05",
        "sim.duration_s=0.1", "sim.steady_after_s=0.0", "hydra.sweep.dir=sweep", cwd=tmp_path)
     out = sh(str(python), "-m", "ballmill", "report", "sweeps=[sweep]", "out=report", cwd=tmp_path)
     assert "report/design.md" in out

@@ -11,8 +11,8 @@ from helpers import MATERIALS, PAIRS, small_drum
 from ballmill.config import SimConfig
 from ballmill.drum import simulate_drum
 
-SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.12, duration_s=0.2, sample_every_s=0.01, steady_after_s=0.05,
-                trajectory_every=5)
+SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.12, startup_revolutions=None, window_revolutions=None,
+                steady_after_s=0.05, duration_s=0.2, sample_every_s=0.01, trajectory_every=5)
 
 
 def test_a_run_from_another_speeds_settled_bed_ends_with_its_own_bits(tmp_path, caplog):

@@ -33,7 +33,7 @@ def ballmill(*args, cwd):
 def sweeps(tmp_path_factory):
     root = tmp_path_factory.mktemp("sweeps")
     for name in ("fig3b", "fig4"):
-        proc = ballmill("run", f"+sweep={name}", "sim=ci", f"hydra.sweep.dir={root / name}",
+        proc = ballmill("run", f"+sweep={name}", "sim=test", f"hydra.sweep.dir={root / name}",
                         f"cache_dir={root / 'cache'}", cwd=root)
         assert proc.returncode == 0, proc.stderr[-3000:]
     return root
@@ -71,7 +71,7 @@ def test_each_job_logs_how_much_of_its_sweep_is_done(sweeps):
 def test_rerunning_a_finished_sweep_recomputes_nothing(sweeps):
     job = next((sweeps / "fig3b").glob("*/record.json"))
     before = json.loads(job.read_text())["wall_time_s"]
-    proc = ballmill("run", "+sweep=fig3b", "sim=ci", f"hydra.sweep.dir={sweeps / 'fig3b'}",
+    proc = ballmill("run", "+sweep=fig3b", "sim=test", f"hydra.sweep.dir={sweeps / 'fig3b'}",
                     f"cache_dir={sweeps / 'cache'}", cwd=sweeps)
     assert proc.returncode == 0
     assert proc.stdout.count("skipped") + proc.stderr.count("skipped") == 7
@@ -79,7 +79,7 @@ def test_rerunning_a_finished_sweep_recomputes_nothing(sweeps):
 
 
 def test_a_changed_config_reruns_its_jobs_and_reuses_cached_dem(sweeps):
-    proc = ballmill("run", "+sweep=fig3b", "sim=ci", "sim.threads=2", f"hydra.sweep.dir={sweeps / 'fig3b'}",
+    proc = ballmill("run", "+sweep=fig3b", "sim=test", "sim.threads=2", f"hydra.sweep.dir={sweeps / 'fig3b'}",
                     f"cache_dir={sweeps / 'cache'}", cwd=sweeps)
     assert proc.returncode == 0
     log = proc.stdout + proc.stderr
@@ -90,7 +90,7 @@ def test_a_changed_config_reruns_its_jobs_and_reuses_cached_dem(sweeps):
 def test_failed_job_is_recorded_the_sweep_carries_on_and_exits_non_zero(tmp_path):
     """A job that fails while running (here the overlap guard rail trips) is recorded, the others
     finish, and the command exits 1 naming the failed job's folder."""
-    proc = ballmill("run", "-m", "sim.max_overlap_fraction=0.05,1e-9", "sim=ci", "sim.duration_s=0.05",
+    proc = ballmill("run", "-m", "sim.max_overlap_fraction=0.05,1e-9", "sim=test", "sim.duration_s=0.05",
                     "sim.settle_s=0.05", "sim.steady_after_s=0.0", f"hydra.sweep.dir={tmp_path}",
                     f"cache_dir={tmp_path / 'cache'}", cwd=tmp_path)
     records = {p.parent.name.split(",")[1]: json.loads(p.read_text()) for p in tmp_path.glob("*/record.json")}
@@ -104,7 +104,7 @@ def test_failed_job_is_recorded_the_sweep_carries_on_and_exits_non_zero(tmp_path
 
 
 def test_a_bad_value_in_any_job_refuses_the_whole_sweep_before_it_starts(tmp_path):
-    proc = ballmill("run", "-m", "scaleup.bpr=19,30", "sim=ci", f"hydra.sweep.dir={tmp_path}", cwd=tmp_path)
+    proc = ballmill("run", "-m", "scaleup.bpr=19,30", "sim=test", f"hydra.sweep.dir={tmp_path}", cwd=tmp_path)
     assert proc.returncode == 2
     assert proc.stderr.strip().splitlines()[-1] == (
         "error: scaleup.bpr=30.0 is outside the yield fit's range [10.0, 23.0]; "
@@ -149,7 +149,7 @@ def test_an_interrupted_sweep_resumes_with_exactly_its_unfinished_jobs(tmp_path)
     the same command again skips the finished jobs and runs the rest."""
     # Ctrl-C's default action even when the tests run in the background (a shell then ignores SIGINT)
     start = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler); from ballmill.cli import main; main()"
-    args = [sys.executable, "-c", start, "run", "+sweep=fig3b", "sim=ci",
+    args = [sys.executable, "-c", start, "run", "+sweep=fig3b", "sim=test",
             "sim.settle_s=0.1", "sim.duration_s=0.4", "sim.steady_after_s=0.1", f"hydra.sweep.dir={tmp_path / 's'}",
             f"cache_dir={tmp_path / 'cache'}"]
     log_file = open(tmp_path / "interrupted.log", "w")  # noqa: SIM115 (closed below, after the wait)

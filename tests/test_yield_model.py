@@ -20,9 +20,9 @@ from ballmill.yields import NotConverged, bpr_line_yield, fit_dose_line, line_yi
 MODEL = YieldModelConfig()
 LAB = ["yield_model.lab.duration_s=0.8", "yield_model.lab.settle_s=0.2", "yield_model.lab.frequencies_hz=[30]",
        "yield_model.lab.ball_diameters_m=[0.0206]"]
-# A small feed (100 kg/h: tens to hundreds of balls) at sim=ci, whose soft balls overlap more in
+# A small feed (100 kg/h: tens to hundreds of balls) at sim=test, whose soft balls overlap more in
 # the larger mills of the iteration: a looser guard rail; half a second of rotation is noisy: 5 %
-DRUM = ["sim.settle_s=0.3", "sim.duration_s=0.5", "sim.steady_after_s=0.1", "sim.threads=1",
+DRUM = ["sim=test", "sim.settle_s=0.3", "sim.duration_s=0.5", "sim.steady_after_s=0.1", "sim.threads=1",
         "sim.max_overlap_fraction=0.15", "scaleup.pet_feed_kg_per_h=100", "scaleup.naoh_feed_kg_per_h=40",
         "yield_model.tolerance=0.05"]
 

@@ -34,6 +34,7 @@ from .drum import (
     drum_spec,
     drum_speed_rpm,
     mean_ball_diameter_m,
+    sim_in_seconds,
     simulate_drum,
 )
 from .economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
@@ -46,7 +47,6 @@ from .lab_dose import (
     lab_dose_line,
     lab_rates,
     lab_sim,
-    simulate_kinetics_lab,
 )
 from .liner import liner_profile
 from .plant.flowsheet import flowsheet, mill_throughput_kg_per_h
@@ -112,8 +112,9 @@ def cuda_available() -> bool:
     return bool(is_arch_supported(ti.cuda))
 
 
-def check_window(sim: SimConfig) -> None:
-    """An averaging window with samples in it."""
+def check_window(sim: SimConfig, drum: DrumConfig) -> None:
+    """An averaging window with samples in it, for the drum's speed."""
+    sim = sim_in_seconds(sim, drum_speed_rpm(drum))
     if sim.steady_after_s >= sim.duration_s:
         raise ConfigError(f"sim.steady_after_s={sim.steady_after_s} leaves no samples to average in "
                           f"sim.duration_s={sim.duration_s}: make it shorter than the duration")
@@ -153,7 +154,7 @@ def plan_drum(s: Scenario) -> Plan:
     if s.dem.mode != "full":
         raise ConfigError("dem=surrogate: study=drum is the DEM of the mill group's drum; the surrogate serves "
                           "study=design, plant and cheapest_mill")
-    check_window(s.sim)
+    check_window(s.sim, s.mill)
     check_numerics(drum_spec(s.mill, s.materials, s.interactions, s.sim), s.sim, "mill")
 
     def execute(out_dir: Path) -> dict:
@@ -235,19 +236,18 @@ class YieldPlan:
         """Run the deferred lab calibration; the dose line's record it gives (else nothing new)."""
         if not self.deferred:
             return {}
-        simulate_kinetics_lab(s)
-        self.line, self.deferred = lab_dose_line(s), False
+        self.line, self.deferred = lab_dose_line(s), False  # simulates the lab first
         return self.record(s)
 
 
 def yield_plan(s: Scenario) -> YieldPlan:
-    """Refuses a BPR outside the line's range, and an energy rule whose lab calibration is
-    missing (unless yield_model.run_lab_calibration)."""
+    """Refuses a BPR outside the line's range; under an energy rule whose lab calibration is
+    missing, the calibration runs first when the plan executes (planning simulates nothing)."""
     model = s.yield_model
     line_y, extrapolated = bpr_line_yield(s.scaleup.bpr, model)
     energy = model.rule != "bpr_line"
-    deferred = energy and model.run_lab_calibration and not calibrated(s)  # the lab DEM runs in execute
-    line = lab_dose_line(s) if energy and not deferred else None  # refused until the lab is calibrated
+    deferred = energy and not calibrated(s)  # the lab DEM runs in execute
+    line = lab_dose_line(s) if energy and not deferred else None
     target = model.target_yield_percent or line_y if energy and model.mode == "target_yield" else None
     return YieldPlan(line_y, extrapolated, line, target, deferred)
 
@@ -264,8 +264,8 @@ def plan_design(s: Scenario) -> Plan:
     collision dose; the yield model's yield (under an energy rule with a target, the residence
     time that reaches it); costs and margin."""
     scale, model = s.scaleup, s.yield_model
-    check_window(s.sim)
     design = design_mill(scale)
+    check_window(s.sim, mill_drum(s, design))
     check_dem_mode(s, design)
     y = yield_plan(s)
     check_design(s, design)
@@ -370,8 +370,7 @@ def plan_yield_calibration(s: Scenario) -> Plan:
 
     def execute(out_dir: Path) -> dict:
         check_machine(s.sim)
-        simulate_kinetics_lab(s)
-        rates = lab_rates(s, model.impact_threshold_j)
+        rates = lab_rates(s, model.impact_threshold_j)  # simulated first when missing
         nominal = rates.query("nominal").iloc[0]
         out = {"calibration_dir": str(calibration_folder(s)), "impact_threshold_j": model.impact_threshold_j}
         for rule, measure in MEASURE.items():
@@ -432,12 +431,12 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
     if model.rule != "bpr_line" and model.mode == "fixed_time":
         raise ConfigError("study=cheapest_mill: yield_model.mode=fixed_time gives no target to reach; "
                           "use yield_model.mode=target_yield")
-    check_window(s.sim)
     fast = replace(s, dem=replace(s.dem, mode="surrogate"))
     check_dem_mode(fast)
     y = yield_plan(s)
     ranges = knob_ranges(s.optimiser)
     paper = design_mill(s.scaleup)
+    check_window(s.sim, mill_drum(s, paper))
     check_design(s, paper)
     record = {"bpr": s.scaleup.bpr, "region": s.scaleup.region, "yield_rule": model.rule,
               "bpr_line_yield_percent": y.line_yield_percent, "optimiser_trials": s.optimiser.trials,

@@ -25,7 +25,7 @@ from scipy.stats import qmc
 from ..config import ConfigError, DemConfig, SimConfig, SurrogateBounds, SurrogateConfig
 from ..dem import SimulationError
 from ..dose import dose_rates
-from ..drum import ball_count, dem_key, drum_speed_rpm, simulate_drum
+from ..drum import ball_count, dem_key, drum_speed_rpm, sim_in_seconds, simulate_drum
 from ..files import write_atomic, write_json
 from ..scenario import Scenario
 from .space import INPUTS, drum_at, power_scale_w
@@ -64,9 +64,9 @@ def design(cfg: SurrogateConfig) -> pd.DataFrame:
 def revolution_sim(sim: SimConfig, dem: DemConfig, speed_rpm: float) -> SimConfig:
     """The surrogate's protocol: after settling, dem.startup_revolutions of turning, then the
     averaging window of dem.window_revolutions (100 samples a revolution)."""
-    turn = 60.0 / speed_rpm
-    return replace(sim, duration_s=(dem.startup_revolutions + dem.window_revolutions) * turn,
-                   steady_after_s=dem.startup_revolutions * turn, sample_every_s=turn / 100)
+    return sim_in_seconds(replace(sim, startup_revolutions=dem.startup_revolutions,
+                                  window_revolutions=dem.window_revolutions, steady_after_s=None, duration_s=None,
+                                  sample_every_s=60.0 / speed_rpm / 100), speed_rpm)
 
 
 def simulate_point(s: Scenario, cfg: SurrogateConfig, point: dict) -> dict:
