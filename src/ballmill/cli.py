@@ -142,6 +142,9 @@ def compare_cmd(cfg: DictConfig) -> None:
         raise ConfigError("sweeps=[] is empty: give sweeps=[outputs/sweeps/NAME,...]")
     model = load(opts.table)
     table = pd.concat([compare_sweep(Path(d), model).assign(sweep=d) for d in opts.sweeps], ignore_index=True)
+    if table.empty:
+        raise ConfigError(f"sweeps={opts.sweeps}: no finished job took its power from the DEM (dem=full) to compare "
+                          "with: run the sweep without dem=surrogate first")
     Path(opts.out).parent.mkdir(parents=True, exist_ok=True)
     table.to_csv(opts.out, index=False)
     shown = table[["sweep", "job", "inside_hull", "dem_power_w", "surrogate_power_w", "power_error",
@@ -247,13 +250,13 @@ def run_command(args: list[str]) -> None:
         i += 1
     inspecting = any(f in flags for f in ("--cfg", "-c", "--info", "-i", "--hydra-help", "--resolve"))
     sweep_dir = None if inspecting else check_jobs(overrides, multirun="-m" in flags or "--multirun" in flags)
-    started = time.time()
+    started, first = time.time(), len(run_module.JOBS)
     saved, sys.argv = sys.argv, ["ballmill run", *args]
     try:
         run_module.main()
     finally:
         sys.argv = saved
-    jobs = records_since(sweep_dir, started) if sweep_dir else run_module.JOBS
+    jobs = records_since(sweep_dir, started) if sweep_dir else run_module.JOBS[first:]
     if not sweep_dir:
         for folder, record in jobs:
             if record["status"] == "ok" and "dem_power_w" in record:

@@ -171,11 +171,11 @@ def plan_drum(s: Scenario) -> Plan:
     return Plan({}, execute)
 
 
-def mill_drum(s: Scenario, design) -> DrumConfig:
+def mill_drum(mill: DrumConfig, design) -> DrumConfig:
     """The designed mill as a drum: its size, speed and charge (graded when the scale-up's is), the
     mill group's liner (lifters sized by height_to_diameter grow with it)."""
     charge = [BallSizeConfig(d, n) for d, n in zip(design.charge_diameters_m, design.charge_counts)]
-    return replace(s.mill, inner_diameter_m=design.diameter_m, inner_length_m=design.length_m,
+    return replace(mill, inner_diameter_m=design.diameter_m, inner_length_m=design.length_m,
                    ball_radius_m=design.ball_radius_m, ball_count=design.ball_count, speed_rpm=design.speed_rpm,
                    charge=charge)
 
@@ -194,13 +194,13 @@ def check_dem_mode(s: Scenario, design=None) -> None:
                           "surrogate does not predict; use dem=full, or yield_model=specific_energy")
     model = load_surrogate(s.dem.table)
     if design is not None:
-        predict_drum(model, mill_drum(s, design), s.materials, s.interactions, s.dem.allow_extrapolation)
+        predict_drum(model, mill_drum(s.mill, design), s.materials, s.interactions, s.dem.allow_extrapolation)
 
 
 def mechanics(s: Scenario, design, out_dir: Path | None = None) -> tuple[dict, dict]:
     """The design's mill: its record (dem_*: power, its standard error, ...) and its dose rates
     per kg of PET held up, from the DEM (dem=full) or the surrogate (dem=surrogate, marked)."""
-    drum, pet_kg = mill_drum(s, design), pet_holdup_kg(design)
+    drum, pet_kg = mill_drum(s.mill, design), pet_holdup_kg(design)
     if s.dem.mode == "full":
         run, dem_dir = run_drum(s, drum, out_dir)
         return drum_record(run, dem_dir) | {"dem_source": "full"}, run_dose(run, pet_kg, s)
@@ -256,7 +256,7 @@ def check_design(s: Scenario, design) -> None:
     """The costs' data tables exist; the mill's numerics are sound."""
     purchase_cost_usd(design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, s.economics)
     margin_usd_per_t_tpa(s.economics)
-    check_numerics(drum_spec(mill_drum(s, design), s.materials, s.interactions, s.sim), s.sim, "mill")
+    check_numerics(drum_spec(mill_drum(s.mill, design), s.materials, s.interactions, s.sim), s.sim, "mill")
 
 
 def plan_design(s: Scenario) -> Plan:
@@ -265,7 +265,7 @@ def plan_design(s: Scenario) -> Plan:
     time that reaches it); costs and margin."""
     scale, model = s.scaleup, s.yield_model
     design = design_mill(scale)
-    check_window(s.sim, mill_drum(s, design))
+    check_window(s.sim, mill_drum(s.mill, design))
     check_dem_mode(s, design)
     y = yield_plan(s)
     check_design(s, design)
@@ -436,7 +436,7 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
     y = yield_plan(s)
     ranges = knob_ranges(s.optimiser)
     paper = design_mill(s.scaleup)
-    check_window(s.sim, mill_drum(s, paper))
+    check_window(s.sim, mill_drum(s.mill, paper))
     check_design(s, paper)
     record = {"bpr": s.scaleup.bpr, "region": s.scaleup.region, "yield_rule": model.rule,
               "bpr_line_yield_percent": y.line_yield_percent, "optimiser_trials": s.optimiser.trials,
