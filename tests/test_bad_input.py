@@ -120,6 +120,8 @@ RUN = [
     (["sim.duration_s=5"], r"sim: the start-up and the averaging window are given in revolutions .* give one pair"),
     (["sim=test", "sim.window_revolutions=2"], r"sim: the start-up and the averaging window are given in revolutions"),
     (["sim.window_revolutions=null"], r"sim: the start-up and the averaging window are given in revolutions"),
+    (["yield_model.run_lab_calibration=true"],
+     r"Could not override 'yield_model.run_lab_calibration': Key 'run_lab_calibration' not in 'YieldModelConfig'"),
     (["sim=test", "sim.sample_every_s=1.0"], r"sim.sample_every_s=1.0 gives fewer than 2 samples"),
     (["sim.threads=999"], r"sim.threads=999 is more than this machine's \d+ cores"),
     (["sim.threads=-1"], r"sim.threads=-1 is outside the allowed range \[0, inf\]"),
