@@ -3,7 +3,9 @@ energy book, the lab calibration against the BPR line it re-expresses, the resid
 point on constructed and real mills, and the refusals."""
 
 import json
+import logging
 import math
+import re
 
 import pandas as pd
 import pytest
@@ -155,6 +157,23 @@ def test_energy_rule_design_converges_and_records_its_fixed_point(calibrated, tm
                          tmp_path)
     assert fixed["residence_time_min"] == 20.0 and "fixed_point_iterations" not in fixed
     assert 0 <= fixed["yield_percent"] < record["yield_percent"]  # the seed's mill doses less than the lab
+
+
+def test_an_energy_rule_runs_its_missing_lab_calibration_first_and_once(tmp_path, caplog):
+    """From a clean cache: planning simulates nothing and refuses nothing; the run simulates the
+    lab first (logged with its time), and the next run with the same lab conditions reuses it."""
+    overrides = ["yield_model=specific_energy", "yield_model.mode=fixed_time", f"cache_dir={tmp_path / 'cache'}",
+                 *LAB, *DRUM]
+    assert not (tmp_path / "cache").exists() or not list((tmp_path / "cache").rglob("calibration.json"))
+    with caplog.at_level(logging.INFO, logger="ballmill.lab_dose"):
+        first = run_scenario(compose("config", overrides), tmp_path)
+        assert "no lab calibration for these yield_model.lab conditions yet: running it" in caplog.text
+        assert re.search(r"lab calibration done in \d+ s", caplog.text)
+        caplog.clear()
+        again = run_scenario(compose("config", overrides), tmp_path)
+    assert "running it" not in caplog.text
+    assert len(list((tmp_path / "cache").rglob("calibration.json"))) == 1
+    assert first["calibration_dir"] == again["calibration_dir"] and first["yield_b_percent_per_kj_per_kg"] > 0
 
 
 def test_energy_rules_refuse_a_threshold_above_every_lab_impact(calibrated):

@@ -439,8 +439,6 @@ class DemConfig:
         "doc": "the surrogate's training table: a data/ table or a path (from `ballmill surrogate`)"})
     allow_extrapolation: bool = field(default=False, metadata={
         "doc": "evaluate designs outside the hull of the training runs (refused otherwise)"})
-    startup_revolutions: float = rng(0.5, 0.0, None, doc="surrogate runs: turning before the averaging window")
-    window_revolutions: float = rng(1.0, 0.0, None, lo_open=True, doc="surrogate runs: averaging window")
 
 
 @dataclass
@@ -627,8 +625,9 @@ class BenchConfig:
 class SurrogateConfig:
     """`ballmill surrogate`: DEM runs of drums on a space-filling design of the dimensionless
     groups (scrambled Sobol for training, a Latin hypercube inside its hull held out), each
-    cached like any drum run and averaged over dem.window_revolutions after
-    dem.startup_revolutions; the training table; the model's cross-validated and held-out error."""
+    cached like any drum run and averaged over sim.window_revolutions after
+    sim.startup_revolutions (sim=surrogate); the training table; the model's cross-validated and
+    held-out error."""
 
     bounds: SurrogateBounds = field(default_factory=SurrogateBounds, metadata={"doc": "the training box (bounds.*)"})
     points: int = rng(64, 8, None, doc="training runs (a power of two: Sobol)")
@@ -642,6 +641,11 @@ class SurrogateConfig:
     def __post_init__(self):
         if self.points & (self.points - 1):
             raise ConfigError(f"points={self.points}: a Sobol design needs a power of two (32, 64, 128, ...)")
+        hull = len(dataclasses.fields(SurrogateBounds)) + 1  # points of a simplex in the space of the inputs
+        fitted = self.points - math.ceil(self.points / self.folds)
+        if fitted < hull:
+            raise ConfigError(f"points={self.points} in folds={self.folds}: each fold is fitted on {fitted} runs, fewer "
+                              f"than the {hull} whose hull the surrogate needs; give more points or more folds")
 
 
 @dataclass

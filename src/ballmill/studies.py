@@ -456,8 +456,9 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
         return rec["annualised_cost_usd_per_yr"], 0.0 if rec["dem_inside_hull"] else 1.0
 
     def confirm(design, label: str, out_dir: Path) -> dict:
-        """The DEM of a mill the surrogate chose, at the surrogate's protocol (its speed's revolutions)."""
-        full = replace(s, dem=replace(s.dem, mode="full"), sim=revolution_sim(s.sim, s.dem, design.speed_rpm))
+        """The DEM of a mill the surrogate chose, at the run's preset (its speed's revolutions; the
+        cheapest-mill sweeps run sim=surrogate, the surrogate's own protocol)."""
+        full = replace(s, dem=replace(s.dem, mode="full"), sim=revolution_sim(s.sim, design.speed_rpm))
         folder = out_dir / label
         folder.mkdir(exist_ok=True)
         dem, rates = mechanics(full, design, folder)
