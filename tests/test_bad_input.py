@@ -10,8 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 import trimesh
+from omegaconf import OmegaConf
 
-from ballmill.cli import main
+from ballmill.cli import RUN_GROUPS, main
+from ballmill.config import COMMANDS, ConfigError, SimConfig, to_object, walk
 from ballmill.dem.engine import Engine
 from ballmill.vision.frames import write_frames
 
@@ -267,3 +269,67 @@ def test_a_time_step_above_40_percent_of_rayleigh_is_accepted_with_a_warning(cap
     with caplog.at_level("WARNING"):
         assert check_jobs(["sim.dt_fraction=0.5"], multirun=False) is None
     assert "the time step is 50 % of the Rayleigh step (above 40 %)" in caplog.text
+
+
+# The campaign as the configs grow: every field with a range or choices, of every config group and
+# command, refused with its name and value outside them.  A field comes with what its schema needs
+# besides (a run's length in seconds replaces its revolutions; a command's required input).
+SECONDS = {"startup_revolutions": None, "window_revolutions": None, "steady_after_s": 0.1, "duration_s": 1.0}
+COMPANIONS = {(SimConfig, "steady_after_s"): SECONDS, (SimConfig, "duration_s"): SECONDS,
+              (COMMANDS["track"], None): {"video": "run1.avi"}, (COMMANDS["calibrate"], None): {"videos": "videos"}}
+
+
+def outside(path: str, f):
+    """A value of the field outside what it allows (None: a field of any value)."""
+    meta = f.metadata
+    if "choices" in meta:
+        return "not_a_choice"
+    lo, hi, lo_open, hi_open = meta["range"]
+    integer = "int" in str(f.type) and "float" not in str(f.type)
+    if lo is not None:
+        return lo if lo_open else lo - 1
+    if hi is not None:
+        return hi if hi_open else hi + 1
+    return None if integer else float("nan")
+
+
+def ranged_fields():
+    """(prefix of the field's name in messages, schema, path, field): the run's groups, then each
+    command's own options (named bare)."""
+    schemas = [*((f"{group}.", schema) for group, schema in RUN_GROUPS), *(("", schema) for schema in COMMANDS.values())]
+    for group, schema in schemas:
+        for path, f, _ in walk(schema):
+            if ("range" in f.metadata or "choices" in f.metadata) and "[]" not in path and outside(path, f) is not None:
+                yield group, schema, path, f
+
+
+@pytest.mark.parametrize("prefix, schema, path, f", list(ranged_fields()),
+                         ids=[f"{g or s.__name__ + ': '}{p}" for g, s, p, _ in ranged_fields()])
+def test_every_ranged_field_refuses_a_value_outside_its_range(prefix, schema, path, f):
+    bad = outside(path, f)
+    values = {**COMPANIONS.get((schema, None), {}), **COMPANIONS.get((schema, path), {})}
+    node = values
+    *parents, name = path.split(".")
+    for parent in parents:
+        node = node.setdefault(parent, {})
+    node[name] = bad
+    shown = "'not_a_choice'" if bad == "not_a_choice" else re.escape(str(float(bad)) if not isinstance(bad, int)
+                                                                     or "float" in str(f.type) else str(bad))
+    with pytest.raises(ConfigError, match=rf"(^|\W){re.escape(prefix + path)}={shown}(?![\w.])"):  # a check of its own may
+        to_object(OmegaConf.create(values), schema, prefix.rstrip("."))  # come first, naming it all the same
+
+
+# Numbers any value of which is meaningful (finite): the BPR line's coefficients and the range of
+# its experiments, and the salt's price (a sale above zero, a disposal below).
+ANY_VALUE = {"yield_model.bpr_slope_percent", "yield_model.bpr_intercept_percent", "yield_model.bpr_min",
+             "yield_model.bpr_max", "plant.na2so4_usd_per_t"}
+
+
+def test_every_number_field_has_a_range_unless_any_value_is_meaningful():
+    """So that a new field cannot leave the campaign above unseen: without a range it is not in it."""
+    unranged = {f"{group}.{path}" for group, schema in [*RUN_GROUPS, *COMMANDS.items()] for path, f, _ in walk(schema)
+                if re.search(r"\b(float|int)\b", str(f.type)) and "list" not in str(f.type)
+                and "range" not in f.metadata}
+    assert unranged == ANY_VALUE
+    assert {f"{prefix}{path}" for prefix, _, path, _ in ranged_fields()} >= {"sim.window_revolutions",
+                                                                             "sim.startup_revolutions"}
