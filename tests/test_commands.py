@@ -42,7 +42,7 @@ NOT_RUN = {
 # lab calibration of the energy rules keeps its length: its dose line sets their mills' size).
 LAB = ["lab.duration_s=0.3", "lab.settle_s=0.1", "lab.frequencies_hz=[25.0]", "lab.ball_diameters_m=[0.0176]"]
 RUN = ["sim=test", "sim.threads=1", "sim.shear_modulus_scale=0.01", "sim.settle_s=0.1", "sim.steady_after_s=0.1",
-       "sim.duration_s=0.3", "plant.monte_carlo_draws=10", "yield_model.lab.frequencies_hz=[30.0]",
+       "sim.duration_s=0.3", "plant.monte_carlo_draws=10", "optimiser.trials=30", "yield_model.lab.frequencies_hz=[30.0]",
        "yield_model.lab.ball_diameters_m=[0.0206]", *LAB]
 SWEEP_JOBS = {"fig3b": ["scaleup.bpr=19,22.9"], "fig4": ["scaleup.region=DC,DE"], "plant": ["scaleup.bpr=19"],
               "plant_states": ["scaleup.region=DC"], "cheapest_mill_states": ["scaleup.region=DC", "optimiser.confirm=false"],
@@ -50,7 +50,7 @@ SWEEP_JOBS = {"fig3b": ["scaleup.bpr=19,22.9"], "fig4": ["scaleup.region=DC,DE"]
               "bond_mill": ["interactions.liner-steel.restitution=0.5", "interactions.liner-steel.static_friction=0.5"],
               "lab_validation": ["sim.threads=1", *LAB], "cheapest_mill": ["optimiser.confirm=false"]}
 OTHERS = {"render": LAB, "calibrate": [*LAB, "restitutions=[0.6]", "frictions=[0.3]"],
-          "surrogate": ["points=8", "holdout=0", "folds=8", "sim.settle_s=0.1", "bounds.diameter_to_ball=[5.0,6.0]",
+          "surrogate": ["points=8", "holdout=0", "folds=8", "jobs=1", "sim.settle_s=0.1", "bounds.diameter_to_ball=[5.0,6.0]",
                         "bounds.fraction_of_critical=[0.8,0.9]", "bounds.fill_fraction=[0.2,0.25]",
                         "bounds.length_to_diameter=[0.75,1.0]"]}
 
@@ -75,8 +75,8 @@ def small(args: list[str], cache: Path, stand_ins: dict[str, str]) -> list[str]:
     if command == "run":
         sweep = next((a.split("=", 1)[1] for a in rest if a.startswith("+sweep=")), None)
         extra = SWEEP_JOBS[sweep] if sweep == "lab_validation" else [*RUN, *SWEEP_JOBS.get(sweep, [])]
-        if "study=drum" in rest:  # the reference drum's 8,640 balls of 10 mm: 135 of 40 mm
-            extra = [*extra, "mill.ball_radius_m=0.02"]
+        if "study=drum" in rest:  # the reference drum's 8,640 balls of 10 mm: 40 of 60 mm
+            extra = [*extra, "mill.ball_radius_m=0.03"]
         # jobs' folders by number: these overrides would name them past the file system's limit
         extra = [*extra, f"cache_dir={cache}", "hydra.sweep.subdir=${hydra.job.num}"]
     elif command in ("surrogate", "render", "calibrate"):
