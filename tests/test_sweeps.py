@@ -54,7 +54,10 @@ def test_sweep_report_matches_golden_table(sweeps, name, key, n_jobs):
     spectra = pd.read_parquet(sweeps / "report" / f"{name}_impact_spectra.parquet")
     assert spectra.case.nunique() == n_jobs and (spectra["count"] >= 0).all()
     assert (sweeps / "report" / f"{name}_impact_spectra.png").stat().st_size > 0
-    assert "## Impacts" in (sweeps / "report" / f"{name}.md").read_text()
+    markdown = (sweeps / "report" / f"{name}.md").read_text()
+    assert "## Impacts" in markdown
+    # the test preset's window is the start-up: every job is flagged, in its row and in a line
+    assert not table.dem_steady.any() and markdown.count("- UNSTEADY `") == n_jobs
     omega = table.dem_speed_rpm * 2 * np.pi / 60  # the torque opposes the turning drum
     np.testing.assert_allclose(table.dem_power_w, -table.dem_torque_axis_nm * omega, rtol=1e-9)
     kwh_per_t_pet = table.dem_power_w / 1e3 / (table.pet_feed_kg_per_h / 1e3)
@@ -111,6 +114,21 @@ def test_failed_job_is_recorded_the_sweep_carries_on_and_exits_non_zero(tmp_path
     assert (failed / "FAILED.json").exists()
     assert proc.returncode == 1
     assert f"error: 1 job(s) failed (see their FAILED.json): {failed}" in proc.stderr
+    assert "warning: 1 jobs' power is not the steady one" not in proc.stderr  # one job: its own line
+    ok = next(p for p in tmp_path.glob("*sim.max_overlap_fraction=0.05*"))
+    assert f"warning: {ok}: the power is not the steady one: the averaging starts" in proc.stderr
+
+
+def test_a_run_prints_its_power_and_a_warning_when_its_window_is_not_steady(tmp_path):
+    proc = ballmill("run", "sim=test", "scaleup.pet_feed_kg_per_h=100", "hydra.run.dir=run",
+                    f"cache_dir={tmp_path / 'cache'}", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    record = json.loads((tmp_path / "run" / "record.json").read_text())
+    assert re.search(rf"run: power {record['dem_power_w'] / 1e3:.4g} \+- .* kW \(DEM\), residence time 20 min",
+                     proc.stdout)
+    warning = [line for line in proc.stderr.splitlines() if line.startswith("warning: ")]
+    assert warning == [(f"warning: {tmp_path / 'run'}: the power is not the steady one: "
+                        f"{record['dem_unsteady_reason']} (sim=test is for the tests)")]
 
 
 def test_a_bad_value_in_any_job_refuses_the_whole_sweep_before_it_starts(tmp_path):
