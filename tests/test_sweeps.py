@@ -128,7 +128,7 @@ def test_a_run_prints_its_power_and_a_warning_when_its_window_is_not_steady(tmp_
                      proc.stdout)
     warning = [line for line in proc.stderr.splitlines() if line.startswith("warning: ")]
     assert warning == [(f"warning: {tmp_path / 'run'}: the power is not the steady one: "
-                        f"{record['dem_unsteady_reason']} (sim=test is for the tests)")]
+                        f"{record['dem_unsteady_reason']} (sim=steady, the default, averages a revolution after one)")]
 
 
 def test_a_bad_value_in_any_job_refuses_the_whole_sweep_before_it_starts(tmp_path):

@@ -264,7 +264,8 @@ def run_command(args: list[str]) -> None:
     unsteady = [folder for folder, record in jobs if record.get("dem_steady") is False]
     if len(unsteady) == 1:
         print(f"warning: {unsteady[0]}: the power is not the steady one: "
-              f"{dict(jobs)[unsteady[0]]['dem_unsteady_reason']} (sim=test is for the tests)", file=sys.stderr)
+              f"{dict(jobs)[unsteady[0]]['dem_unsteady_reason']} (sim=steady, the default, averages a revolution after "
+              "one)", file=sys.stderr)
     elif unsteady:
         print(f"warning: {len(unsteady)} jobs' power is not the steady one (dem_unsteady_reason in their records): "
               f"{', '.join(map(str, unsteady))}", file=sys.stderr)

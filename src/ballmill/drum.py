@@ -280,7 +280,8 @@ def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, 
 
 
 UNKEYED_SIM_FIELDS = ("threads", "neighbour_skin", "launch", "checkpoint_every_wall_s", "progress_every_s")
-UNSET_SIM_FIELDS = ("power_se_target", "startup_revolutions", "window_revolutions")  # keyed only when set
+# left out of a key when null: an unset target, and the revolutions, which sim_in_seconds has made seconds
+UNSET_SIM_FIELDS = ("power_se_target", "startup_revolutions", "window_revolutions")
 
 
 def check_stl(path: str) -> None:
