@@ -42,7 +42,8 @@ def run(spec, dt, duration, sample_every=None, trajectory_every=0, phases=(), **
 
 MATERIALS = {"steel": MaterialConfig()}
 PAIRS = {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}
-DRUM_SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.3, duration_s=1.5, sample_every_s=0.01, steady_after_s=0.2)
+DRUM_SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.3, startup_revolutions=None, window_revolutions=None,
+                     steady_after_s=0.2, duration_s=1.5, sample_every_s=0.01)
 
 
 def small_drum(geometry="analytic"):

@@ -10,12 +10,12 @@ import numpy as np
 import pandas as pd
 import pytest
 import trimesh
+from omegaconf import OmegaConf
 
-from ballmill.cli import main
+from ballmill.cli import RUN_GROUPS, main
+from ballmill.config import COMMANDS, ConfigError, SimConfig, to_object, walk
 from ballmill.dem.engine import Engine
 from ballmill.vision.frames import write_frames
-
-FAST = ["sim.settle_s=0.05", "sim.duration_s=0.1", "sim.steady_after_s=0.0"]
 
 
 @pytest.fixture
@@ -90,8 +90,6 @@ RUN = [
     (["scaleup.ball_radius_m=10"], r"scaleup.ball_radius_m=10.0: balls of 20 m do not fit a mill"),
     (["scaleup.speed_rpm=0"], r"scaleup.speed_rpm=0.0 is outside the allowed range \(0.0, inf\]"),
     (["scaleup.operating_hours_per_year=9000"], r"scaleup.operating_hours_per_year=9000.0 is outside .*\(0.0, 8784.0\]"),
-    (["yield_model=specific_energy"],
-     r"yield_model.rule=specific_energy: no lab calibration .* in .*: run `ballmill run study=yield_calibration`"),
     (["yield_model.target_yield_percent=0"], r"yield_model.target_yield_percent=0.0 is outside .*\(0.0, 100.0\]"),
     (["yield_model.target_yield_percent=101"], r"yield_model.target_yield_percent=101.0 is outside .*\(0.0, 100.0\]"),
     (["yield_model.impact_threshold_j=0"], r"yield_model.impact_threshold_j=0.0 is outside .*\(0.0, inf\]"),
@@ -123,15 +121,24 @@ RUN = [
     (["sim.dt_fraction=1.0"], r"sim: the time step is 1.00 x the Rayleigh step .* set sim.allow_unstable_time_step"),
     (["sim.dt_fraction=0"], r"sim.dt_fraction=0.0 is outside the allowed range \(0.0, 1.0\]"),
     (["sim.dt_s=0.01"], r"sim: the time step is \d+\.\d\d x the Rayleigh step"),
-    (["sim.steady_after_s=0.6", "sim.duration_s=0.6"], r"sim.steady_after_s=0.6 leaves no samples to average"),
-    (["sim.sample_every_s=1.0"], r"sim.sample_every_s=1.0 gives fewer than 2 samples"),
+    (["sim=test", "sim.steady_after_s=0.6", "sim.duration_s=0.6"], r"sim.steady_after_s=0.6 leaves no samples to average"),
+    (["sim.window_revolutions=0"], r"sim.window_revolutions=0.0 is outside the allowed range \(0.0, inf\]"),
+    (["sim.startup_revolutions=-1"], r"sim.startup_revolutions=-1.0 is outside the allowed range \[0.0, inf\]"),
+    (["sim.window_revolutions=nan"], r"sim.window_revolutions=nan is not a finite number"),
+    (["sim.window_revolutions=0.001"], r"sim.sample_every_s=0.01 gives fewer than 2 samples in the averaging window"),
+    (["sim.duration_s=5"], r"sim: the start-up and the averaging window are given in revolutions .* give one pair"),
+    (["sim=test", "sim.window_revolutions=2"], r"sim: the start-up and the averaging window are given in revolutions"),
+    (["sim.window_revolutions=null"], r"sim: the start-up and the averaging window are given in revolutions"),
+    (["yield_model.run_lab_calibration=true"],
+     r"Could not override 'yield_model.run_lab_calibration': Key 'run_lab_calibration' not in 'YieldModelConfig'"),
+    (["sim=test", "sim.sample_every_s=1.0"], r"sim.sample_every_s=1.0 gives fewer than 2 samples"),
     (["sim.threads=999"], r"sim.threads=999 is more than this machine's \d+ cores"),
     (["sim.threads=-1"], r"sim.threads=-1 is outside the allowed range \[0, inf\]"),
     (["sim.arch=gpu"], r"sim.arch='gpu' is not one of \['cpu', 'cuda'\]"),
     (["sim.precision=f16"], r"sim.precision='f16' is not one of \['f64', 'f32'\]"),
     (["sim.max_contacts_per_particle=4"], r"sim.max_contacts_per_particle=4 is too few for a bed of \d+ balls .* use at least 12"),
     (["sim.dt_fractoin=0.1"], r"Could not override 'sim.dt_fractoin': Key 'dt_fractoin' not in 'SimConfig'"),
-    (["sim=huge"], r"Could not find 'sim/huge'; available: ci, lab, paper"),
+    (["sim=huge"], r"Could not find 'sim/huge'; available: lab, paper, steady, surrogate, test"),
     (["study=foo"], r"Could not find 'study/foo'; available: cheapest_mill, design, drum, lab"),
     (["+sweep=fig99"], r"Could not find 'sweep/fig99'; available: .*fig3b, fig4, lab_validation"),
     (["materials.steel.density_kg_per_m3=-1"], r"materials.steel.density_kg_per_m3=-1.0 is outside .*\(0.0, inf\]"),
@@ -201,7 +208,7 @@ RUN = [
 
 @pytest.mark.parametrize("overrides, message", RUN, ids=[" ".join(o) for o, _ in RUN])
 def test_run_refuses(cli, inputs, overrides, message):
-    status, line = cli("run", *FAST, *[o.format(inputs=inputs) for o in overrides])
+    status, line = cli("run", *[o.format(inputs=inputs) for o in overrides])
     assert status == 2
     assert line.startswith("error: ") and re.search(message, line), line
 
@@ -242,6 +249,7 @@ OTHERS = [
     (["bench", "peer=gromacs"], r"peer='gromacs' is not one of \[None, 'liggghts', 'lammps', 'liggghts,lammps', 'both'\]"),
     (["bench", "mm400=true", "mm400_duration_s=0"], r"mm400_duration_s=0.0 is outside the allowed range \(0.0, inf\]"),
     (["surrogate", "points=60"], r"points=60: a Sobol design needs a power of two"),
+    (["surrogate", "points=8", "folds=2"], r"points=8 in folds=2: each fold is fitted on 4 runs, fewer than the 7"),
     (["surrogate", "bounds.fill_fraction=[0.5,0.3]"], r"bounds.fill_fraction=\[0.5, 0.3\]: give \[low, high\]"),
     (["surrogate", "bounds.restitution=[0.3,1.2]"], r"bounds.restitution\[1\]=1.2 is outside the allowed range"),
     (["compare"], r"sweeps=\[\] is empty: give sweeps=\[outputs/sweeps/NAME,...\]"),
@@ -270,3 +278,67 @@ def test_a_time_step_above_40_percent_of_rayleigh_is_accepted_with_a_warning(cap
     with caplog.at_level("WARNING"):
         assert check_jobs(["sim.dt_fraction=0.5"], multirun=False) is None
     assert "the time step is 50 % of the Rayleigh step (above 40 %)" in caplog.text
+
+
+# The campaign as the configs grow: every field with a range or choices, of every config group and
+# command, refused with its name and value outside them.  A field comes with what its schema needs
+# besides (a run's length in seconds replaces its revolutions; a command's required input).
+SECONDS = {"startup_revolutions": None, "window_revolutions": None, "steady_after_s": 0.1, "duration_s": 1.0}
+COMPANIONS = {(SimConfig, "steady_after_s"): SECONDS, (SimConfig, "duration_s"): SECONDS,
+              (COMMANDS["track"], None): {"video": "run1.avi"}, (COMMANDS["calibrate"], None): {"videos": "videos"}}
+
+
+def outside(path: str, f):
+    """A value of the field outside what it allows (None: a field of any value)."""
+    meta = f.metadata
+    if "choices" in meta:
+        return "not_a_choice"
+    lo, hi, lo_open, hi_open = meta["range"]
+    integer = "int" in str(f.type) and "float" not in str(f.type)
+    if lo is not None:
+        return lo if lo_open else lo - 1
+    if hi is not None:
+        return hi if hi_open else hi + 1
+    return None if integer else float("nan")
+
+
+def ranged_fields():
+    """(prefix of the field's name in messages, schema, path, field): the run's groups, then each
+    command's own options (named bare)."""
+    schemas = [*((f"{group}.", schema) for group, schema in RUN_GROUPS), *(("", schema) for schema in COMMANDS.values())]
+    for group, schema in schemas:
+        for path, f, _ in walk(schema):
+            if ("range" in f.metadata or "choices" in f.metadata) and "[]" not in path and outside(path, f) is not None:
+                yield group, schema, path, f
+
+
+@pytest.mark.parametrize("prefix, schema, path, f", list(ranged_fields()),
+                         ids=[f"{g or s.__name__ + ': '}{p}" for g, s, p, _ in ranged_fields()])
+def test_every_ranged_field_refuses_a_value_outside_its_range(prefix, schema, path, f):
+    bad = outside(path, f)
+    values = {**COMPANIONS.get((schema, None), {}), **COMPANIONS.get((schema, path), {})}
+    node = values
+    *parents, name = path.split(".")
+    for parent in parents:
+        node = node.setdefault(parent, {})
+    node[name] = bad
+    shown = "'not_a_choice'" if bad == "not_a_choice" else re.escape(str(float(bad)) if not isinstance(bad, int)
+                                                                     or "float" in str(f.type) else str(bad))
+    with pytest.raises(ConfigError, match=rf"(^|\W){re.escape(prefix + path)}={shown}(?![\w.])"):  # a check of its own may
+        to_object(OmegaConf.create(values), schema, prefix.rstrip("."))  # come first, naming it all the same
+
+
+# Numbers any value of which is meaningful (finite): the BPR line's coefficients and the range of
+# its experiments, and the salt's price (a sale above zero, a disposal below).
+ANY_VALUE = {"yield_model.bpr_slope_percent", "yield_model.bpr_intercept_percent", "yield_model.bpr_min",
+             "yield_model.bpr_max", "plant.na2so4_usd_per_t"}
+
+
+def test_every_number_field_has_a_range_unless_any_value_is_meaningful():
+    """So that a new field cannot leave the campaign above unseen: without a range it is not in it."""
+    unranged = {f"{group}.{path}" for group, schema in [*RUN_GROUPS, *COMMANDS.items()] for path, f, _ in walk(schema)
+                if re.search(r"\b(float|int)\b", str(f.type)) and "list" not in str(f.type)
+                and "range" not in f.metadata}
+    assert unranged == ANY_VALUE
+    assert {f"{prefix}{path}" for prefix, _, path, _ in ranged_fields()} >= {"sim.window_revolutions",
+                                                                             "sim.startup_revolutions"}

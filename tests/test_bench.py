@@ -2,6 +2,8 @@
 
 import math
 import os
+import subprocess
+import sys
 
 import pytest
 
@@ -12,15 +14,33 @@ from ballmill.drum import ball_count
 from ballmill.files import read_json
 
 
-def test_core_balance_is_the_slowest_cores_speed_over_the_fastests_and_nan_on_one_core():
-    cores = os.sched_getaffinity(0)
-    if len(cores) > 1:
-        assert 0.0 < core_balance(200_000) <= 1.0
-    try:
-        os.sched_setaffinity(0, {min(cores)})
-        assert math.isnan(core_balance(200_000))
-    finally:
-        os.sched_setaffinity(0, cores)
+def test_core_balance_is_the_slowest_cores_speed_over_the_fastests_and_nan_on_one_core(monkeypatch):
+    """One pinned loop per core, all started before any is waited for; two cores whose loops take
+    0.3 s and 0.6 s: the slower runs at half the faster's speed."""
+    launched, seconds = [], {0: "0.3\n", 1: "0.6\n"}
+
+    class Loop:
+        def __init__(self, cmd, **kwargs):
+            assert cmd[2] == ballmill.bench.SPIN and int(cmd[4]) == 1000
+            self.core = int(cmd[3])
+            launched.append(self.core)
+
+        def communicate(self):
+            assert len(launched) == 2  # every loop runs at once
+            return seconds[self.core], ""
+
+    monkeypatch.setattr(ballmill.bench.os, "sched_getaffinity", lambda pid: {0, 1})
+    monkeypatch.setattr(ballmill.bench.subprocess, "Popen", Loop)
+    assert core_balance(1000) == 0.5 and launched == [0, 1]
+    monkeypatch.setattr(ballmill.bench.os, "sched_getaffinity", lambda pid: {3})
+    assert math.isnan(core_balance(1000)) and launched == [0, 1]
+
+
+def test_a_spin_loop_runs_on_the_core_it_is_given():
+    core = max(os.sched_getaffinity(0))
+    probe = ballmill.bench.SPIN.replace("print(time.perf_counter() - t)", "print(sorted(os.sched_getaffinity(0)))")
+    out = subprocess.run([sys.executable, "-c", probe, str(core), "10"], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == f"[{core}]"
 
 
 def test_the_figures_name_the_machine_they_come_from():

@@ -1,13 +1,13 @@
 """Checkpoint and restart: a drum run killed part-way and started again ends with the tables of
 an uninterrupted run, bit for bit (a smooth drum of one ball size, and a lifter drum with a
-bidisperse charge)."""
+bidisperse charge).  The run is killed (SIGKILL, as a crash or an out-of-memory kill would end
+it) by itself, right after the checkpoint of a given sample: where it dies does not depend on
+how fast the machine is."""
 
 import json
-import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pandas as pd
@@ -15,12 +15,23 @@ import pytest
 
 RUN = """
 import logging
+import os
+import signal
 import sys
 logging.basicConfig(level=logging.INFO)
 from ballmill.config import BallSizeConfig, DrumConfig, InteractionConfig, LinerConfig, MaterialConfig, SimConfig
+from ballmill.dem import Checkpoint
 from ballmill.drum import simulate_drum
-sim = SimConfig(shear_modulus_scale=1e-2, settle_s=0.1, duration_s=0.5, sample_every_s=0.01, steady_after_s=0.1,
-                checkpoint_every_wall_s=0.2)
+if len(sys.argv) > 2:  # killed right after the checkpoint before this sample
+    die_at, save = int(sys.argv[2]), Checkpoint.save
+    def save_then_die(self, engine, recorder, next_sample, label):
+        save(self, engine, recorder, next_sample, label)
+        if next_sample >= die_at:
+            os.kill(os.getpid(), signal.SIGKILL)
+    Checkpoint.save = save_then_die
+# a checkpoint at every sample (the first after 1 ms of wall-clock time) of 60
+sim = SimConfig(shear_modulus_scale=1e-2, settle_s=0.1, startup_revolutions=None, window_revolutions=None,
+                steady_after_s=0.1, duration_s=0.5, sample_every_s=0.01, checkpoint_every_wall_s=1e-3)
 drum = {drum}
 simulate_drum(drum, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, sim, sys.argv[1])
 """
@@ -32,27 +43,20 @@ LIFTERS_BIDISPERSE = ("DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, line
                       "charge=[BallSizeConfig(0.024, 80), BallSizeConfig(0.016, 150)])")
 
 
-def run(folder: Path, drum: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-c", RUN.replace("{drum}", drum), str(folder)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+def run(folder: Path, drum: str, *die_at: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", RUN.replace("{drum}", drum), str(folder), *die_at],
+                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, timeout=300, check=False)
 
 
 @pytest.mark.parametrize("drum", [SMOOTH, LIFTERS_BIDISPERSE], ids=["smooth", "lifters_bidisperse"])
 def test_a_killed_run_resumes_from_its_checkpoint_and_ends_with_identical_tables(tmp_path, drum):
     whole, killed = tmp_path / "whole", tmp_path / "killed"
-    assert run(whole, drum).wait(timeout=300) == 0
-    proc = run(killed, drum)
-    deadline = time.time() + 300
-    while not (killed / "checkpoint.npz").exists() and time.time() < deadline and proc.poll() is None:
-        time.sleep(0.05)
-    time.sleep(0.5)  # let it run on past the first checkpoint
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+    assert run(whole, drum).returncode == 0
+    assert run(killed, drum, "30").returncode == -signal.SIGKILL  # half-way: 30 samples of 60
     assert (killed / "checkpoint.npz").exists() and not (killed / "dem_summary.json").exists()
     resumed = run(killed, drum)
-    _, err = resumed.communicate(timeout=300)
-    assert resumed.returncode == 0, err
-    assert "resumed from" in err
+    assert resumed.returncode == 0, resumed.stderr
+    assert "resumed from" in resumed.stderr and "at t=0.3" in resumed.stderr  # 30 samples of 0.01 s
     assert not (killed / "checkpoint.npz").exists()  # a finished run leaves none behind
     assert json.loads((killed / "dem_summary.json").read_text()) == json.loads((whole / "dem_summary.json").read_text())
     for table in ("loads", "energy", "collisions"):

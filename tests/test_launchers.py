@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-SWEEP = ["-m", "scaleup.bpr=19,20", "sim=ci", "sim.threads=1", "sim.settle_s=0.05", "sim.duration_s=0.15",
+SWEEP = ["-m", "scaleup.bpr=19,20", "sim=test", "sim.threads=1", "sim.settle_s=0.05", "sim.duration_s=0.15",
          "sim.steady_after_s=0.05"]
 SAME = ["pet_feed_kg_per_h", "diameter_m", "ball_count", "dem_power_w", "dem_collisions_per_s",
         "electricity_usd_per_t_pet", "purchase_cost_usd"]

@@ -16,8 +16,8 @@ from ballmill.scenario import time_step_s
 pytestmark = pytest.mark.skipif(os.environ.get("BALLMILL_PEER_TESTS") != "1" or shutil.which("liggghts") is None,
                                 reason="LIGGGHTS comparison: set BALLMILL_PEER_TESTS=1 with liggghts installed")
 MATERIALS = {"steel": MaterialConfig(shear_modulus_pa=77e7)}  # steel 100x softer, for both programs
-SIM = SimConfig(settle_s=0.5, duration_s=2.0, steady_after_s=0.5, sample_every_s=0.01,
-                checkpoint_every_wall_s=None)
+SIM = SimConfig(settle_s=0.5, startup_revolutions=None, window_revolutions=None, steady_after_s=0.5, duration_s=2.0,
+                sample_every_s=0.01, checkpoint_every_wall_s=None)
 
 
 @pytest.mark.parametrize("fraction_of_critical", [0.5, 0.8])

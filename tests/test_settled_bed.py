@@ -11,8 +11,8 @@ from helpers import MATERIALS, PAIRS, small_drum
 from ballmill.config import SimConfig
 from ballmill.drum import simulate_drum
 
-SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.12, duration_s=0.2, sample_every_s=0.01, steady_after_s=0.05,
-                trajectory_every=5)
+SIM = SimConfig(shear_modulus_scale=1e-2, settle_s=0.12, startup_revolutions=None, window_revolutions=None,
+                steady_after_s=0.05, duration_s=0.2, sample_every_s=0.01, trajectory_every=5)
 
 
 def test_a_run_from_another_speeds_settled_bed_ends_with_its_own_bits(tmp_path, caplog):
@@ -34,14 +34,16 @@ def test_a_run_from_another_speeds_settled_bed_ends_with_its_own_bits(tmp_path, 
 
 def test_another_charge_settles_on_its_own(tmp_path, caplog):
     beds = tmp_path / "beds"
-    simulate_drum(small_drum(), MATERIALS, PAIRS, SIM, tmp_path / "first", beds)
     with caplog.at_level(logging.INFO):
+        simulate_drum(small_drum(), MATERIALS, PAIRS, SIM, tmp_path / "first", beds)
+        assert "saved the settled bed" in caplog.text
+        caplog.clear()
         simulate_drum(small_drum(), MATERIALS, PAIRS, replace(SIM, seed=SIM.seed + 1), tmp_path / "other", beds)
-    assert "starting from the settled bed" not in caplog.text
+    assert "saved the settled bed" in caplog.text and "starting from the settled bed" not in caplog.text
     assert len(list(beds.glob("*.npz"))) == 2
 
 
-def test_a_bed_saved_on_a_sample_step_keeps_that_sample(tmp_path, monkeypatch):
+def test_a_bed_saved_on_a_sample_step_keeps_that_sample(tmp_path, monkeypatch, caplog):
     import ballmill.drum as drum_module
 
     made = drum_module.settled_bed
@@ -54,6 +56,9 @@ def test_a_bed_saved_on_a_sample_step_keeps_that_sample(tmp_path, monkeypatch):
     monkeypatch.setattr(drum_module, "settled_bed", on_a_sample)
     beds = tmp_path / "beds"
     simulate_drum(small_drum(), MATERIALS, PAIRS, SIM, tmp_path / "first", beds)
-    reused = simulate_drum(small_drum(), MATERIALS, PAIRS, replace(SIM, duration_s=0.25), tmp_path / "reused", beds)
+    with caplog.at_level(logging.INFO):
+        reused = simulate_drum(small_drum(), MATERIALS, PAIRS, replace(SIM, duration_s=0.25), tmp_path / "reused",
+                               beds)
+    assert "starting from the settled bed" in caplog.text  # else the comparison below compares two fresh runs
     alone = simulate_drum(small_drum(), MATERIALS, PAIRS, replace(SIM, duration_s=0.25), tmp_path / "alone")
     pd.testing.assert_frame_equal(reused.results.loads, alone.results.loads, check_exact=True)

@@ -56,6 +56,12 @@ def test_a_smooth_response_is_learnt_within_its_noise(synthetic):
     assert (fit.within_2_se > 0.9).all(), fit
 
 
+def test_a_training_with_nothing_held_out_reports_its_fit_and_cross_validation(synthetic):
+    table, _ = synthetic
+    runs, summary = error_table(table[table.split == "train"], folds=4)  # `ballmill surrogate holdout=0`
+    assert set(summary.set) == {"training fit", "cross-validation"} and set(runs.split) == set(summary.set)
+
+
 def test_outside_the_training_box_is_refused_naming_the_input(synthetic):
     table, model = synthetic
     x = np.array(table.loc[table.split == "train", list(INPUTS)].median())

@@ -4,7 +4,6 @@ import importlib.util
 import subprocess
 import sys
 import threading
-import time
 from pathlib import Path
 
 import pytest
@@ -15,7 +14,11 @@ spec.loader.exec_module(tasks)
 
 
 def test_units_run_two_at_a_time_in_list_order_each_told_to_take_one_core():
+    """Each of the first four units waits until a second one runs beside it (a barrier, not a
+    sleep: however slow the machine, two at a time or the barrier times out), and none sees a
+    third."""
     lock, running, most, started, envs = threading.Lock(), [0], [0], [], []
+    pair = threading.Barrier(2, timeout=60)
 
     def unit(name, env):
         with lock:
@@ -23,7 +26,8 @@ def test_units_run_two_at_a_time_in_list_order_each_told_to_take_one_core():
             envs.append(env["BALLMILL_LOCAL_JOBS"])
             running[0] += 1
             most[0] = max(most[0], running[0])
-        time.sleep(0.05)
+        if name != "u4":  # the fifth has no partner left
+            pair.wait()
         with lock:
             running[0] -= 1
 
@@ -33,15 +37,21 @@ def test_units_run_two_at_a_time_in_list_order_each_told_to_take_one_core():
 
 
 def test_after_a_failed_unit_no_other_starts_and_the_exit_names_the_command():
-    started = []
+    """The slow unit ends only once the streams have recorded the other's failure (an event, not
+    a sleep), so the last unit is taken up after it, whichever stream frees first."""
+    started, recorded = [], threading.Event()
+
+    class Failure(subprocess.CalledProcessError):
+        def __del__(self):  # the streams' handler is done with it: the failure is recorded
+            recorded.set()
 
     def fails(name, env):
         started.append(name)
-        raise subprocess.CalledProcessError(3, ["ballmill", "run", "+sweep=fig4"])
+        raise Failure(3, ["ballmill", "run", "+sweep=fig4"])
 
     def slow(name, env):
         started.append(name)
-        time.sleep(0.2)
+        assert recorded.wait(timeout=60)
 
     with pytest.raises(SystemExit, match=r"fig4: ballmill run \+sweep=fig4 exited with 3"):
         tasks.in_two_streams([("slow", slow), ("fig4", fails), ("later", slow)])

@@ -3,7 +3,9 @@ energy book, the lab calibration against the BPR line it re-expresses, the resid
 point on constructed and real mills, and the refusals."""
 
 import json
+import logging
 import math
+import re
 
 import pandas as pd
 import pytest
@@ -20,9 +22,9 @@ from ballmill.yields import NotConverged, bpr_line_yield, fit_dose_line, line_yi
 MODEL = YieldModelConfig()
 LAB = ["yield_model.lab.duration_s=0.8", "yield_model.lab.settle_s=0.2", "yield_model.lab.frequencies_hz=[30]",
        "yield_model.lab.ball_diameters_m=[0.0206]"]
-# A small feed (100 kg/h: tens to hundreds of balls) at sim=ci, whose soft balls overlap more in
+# A small feed (100 kg/h: tens to hundreds of balls) at sim=test, whose soft balls overlap more in
 # the larger mills of the iteration: a looser guard rail; half a second of rotation is noisy: 5 %
-DRUM = ["sim.settle_s=0.3", "sim.duration_s=0.5", "sim.steady_after_s=0.1", "sim.threads=1",
+DRUM = ["sim=test", "sim.settle_s=0.3", "sim.duration_s=0.5", "sim.steady_after_s=0.1", "sim.threads=1",
         "sim.max_overlap_fraction=0.15", "scaleup.pet_feed_kg_per_h=100", "scaleup.naoh_feed_kg_per_h=40",
         "yield_model.tolerance=0.05"]
 
@@ -155,6 +157,23 @@ def test_energy_rule_design_converges_and_records_its_fixed_point(calibrated, tm
                          tmp_path)
     assert fixed["residence_time_min"] == 20.0 and "fixed_point_iterations" not in fixed
     assert 0 <= fixed["yield_percent"] < record["yield_percent"]  # the seed's mill doses less than the lab
+
+
+def test_an_energy_rule_runs_its_missing_lab_calibration_first_and_once(tmp_path, caplog):
+    """From a clean cache: planning simulates nothing and refuses nothing; the run simulates the
+    lab first (logged with its time), and the next run with the same lab conditions reuses it."""
+    overrides = ["yield_model=specific_energy", "yield_model.mode=fixed_time", f"cache_dir={tmp_path / 'cache'}",
+                 *LAB, *DRUM]
+    assert not (tmp_path / "cache").exists() or not list((tmp_path / "cache").rglob("calibration.json"))
+    with caplog.at_level(logging.INFO, logger="ballmill.lab_dose"):
+        first = run_scenario(compose("config", overrides), tmp_path)
+        assert "no lab calibration for these yield_model.lab conditions yet: running it" in caplog.text
+        assert re.search(r"lab calibration done in \d+ s", caplog.text)
+        caplog.clear()
+        again = run_scenario(compose("config", overrides), tmp_path)
+    assert "running it" not in caplog.text
+    assert len(list((tmp_path / "cache").rglob("calibration.json"))) == 1
+    assert first["calibration_dir"] == again["calibration_dir"] and first["yield_b_percent_per_kj_per_kg"] > 0
 
 
 def test_energy_rules_refuse_a_threshold_above_every_lab_impact(calibrated):

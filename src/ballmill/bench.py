@@ -101,7 +101,8 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
     ratios are medians over the rounds, each ratio taken within its round (this machine's
     speed drifts over minutes)."""
     drum, material = case_drum(case)
-    sim = SimConfig(arch=arch, threads=threads, precision=precision, settle_s=settle_s, duration_s=rotate_s,
+    sim = SimConfig(arch=arch, threads=threads, precision=precision, settle_s=settle_s, startup_revolutions=None,
+                    window_revolutions=None, steady_after_s=0.0, duration_s=rotate_s,
                     sample_every_s=min(0.05, rotate_s / 2), neighbour_skin=skin, max_overlap_fraction=0.1)
     spec = drum_spec(drum, {"steel": material}, PAIRS, sim)
     by_round = []

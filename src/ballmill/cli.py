@@ -142,6 +142,9 @@ def compare_cmd(cfg: DictConfig) -> None:
         raise ConfigError("sweeps=[] is empty: give sweeps=[outputs/sweeps/NAME,...]")
     model = load(opts.table)
     table = pd.concat([compare_sweep(Path(d), model).assign(sweep=d) for d in opts.sweeps], ignore_index=True)
+    if table.empty:
+        raise ConfigError(f"sweeps={opts.sweeps}: no finished job took its power from the DEM (dem=full) to compare "
+                          "with: run the sweep without dem=surrogate first")
     Path(opts.out).parent.mkdir(parents=True, exist_ok=True)
     table.to_csv(opts.out, index=False)
     shown = table[["sweep", "job", "inside_hull", "dem_power_w", "surrogate_power_w", "power_error",
@@ -234,7 +237,7 @@ def run_command(args: list[str]) -> None:
     """Check every job of the run or sweep (no simulation), then hand the lot to Hydra's launcher."""
     from . import run as run_module
     from .config import register
-    from .jobs import check_jobs, failed_since
+    from .jobs import check_jobs, records_since
 
     register()  # the schemas Hydra composes with, also when no check runs (--cfg, --info)
     overrides, flags, i = [], [], 0
@@ -247,15 +250,41 @@ def run_command(args: list[str]) -> None:
         i += 1
     inspecting = any(f in flags for f in ("--cfg", "-c", "--info", "-i", "--hydra-help", "--resolve"))
     sweep_dir = None if inspecting else check_jobs(overrides, multirun="-m" in flags or "--multirun" in flags)
-    started = time.time()
+    started, first = time.time(), len(run_module.JOBS)
     saved, sys.argv = sys.argv, ["ballmill run", *args]
     try:
         run_module.main()
     finally:
         sys.argv = saved
-    failed = failed_since(sweep_dir, started) if sweep_dir else run_module.FAILED_JOBS
+    jobs = records_since(sweep_dir, started) if sweep_dir else run_module.JOBS[first:]
+    if not sweep_dir:
+        for folder, record in jobs:
+            if record["status"] == "ok" and "dem_power_w" in record:
+                print(result_line(folder, record))
+    unsteady = [folder for folder, record in jobs if record.get("dem_steady") is False]
+    if len(unsteady) == 1:
+        print(f"warning: {unsteady[0]}: the power is not the steady one: "
+              f"{dict(jobs)[unsteady[0]]['dem_unsteady_reason']} (sim=steady, the default, averages a revolution after "
+              "one)", file=sys.stderr)
+    elif unsteady:
+        print(f"warning: {len(unsteady)} jobs' power is not the steady one (dem_unsteady_reason in their records): "
+              f"{', '.join(map(str, unsteady))}", file=sys.stderr)
+    failed = [folder for folder, record in jobs if record["status"] != "ok"]
     if failed:
         raise JobsFailed(f"{len(failed)} job(s) failed (see their FAILED.json): {', '.join(map(str, failed))}")
+
+
+def result_line(folder: Path, record: dict) -> str:
+    """A finished run's headline numbers in one line: the mill's power (and where it comes from),
+    and what the study made of it."""
+    source = {"full": "DEM", "surrogate": "surrogate"}.get(record.get("dem_source"), "DEM")
+    parts = [f"power {record['dem_power_w'] / 1e3:.4g} +- {record['dem_power_se_w'] / 1e3:.2g} kW ({source})"]
+    for key, text in (("residence_time_min", "residence time {:.3g} min"), ("yield_percent", "yield {:.3g} %"),
+                      ("electricity_usd_per_t_pet", "electricity {:.3g} $/t PET"),
+                      ("purchase_cost_usd", "purchase cost {:,.0f} $"), ("msp_usd_per_kg", "MSP {:.3g} $/kg rTPA")):
+        if isinstance(record.get(key), (int, float)):
+            parts.append(text.format(record[key]))
+    return f"{folder}: {', '.join(parts)}"
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -119,7 +119,14 @@ RECORD = {
         "dem_power_with_rolling_w": "mean power with the rolling-friction torque",
         "dem_simulated_s": "simulated time, settling included",
         "dem_averaging_from_s": "start of the averaging window",
-        "dem_averaging_ended_by": "why the run ended: the configured duration, or sim.power_se_target reached",
+        "dem_averaging_ended_by": "why the run ended: the configured window, or sim.power_se_target reached",
+        "dem_startup_revolutions": "revolutions of the drum from its start to the averaging window",
+        "dem_window_revolutions": "the averaging window in revolutions of the drum",
+        "dem_power_trend_t": "t statistic of the power's straight-line trend over the window (10 batch means)",
+        "dem_power_drift_fraction": "that trend's change of the power over the window, as a fraction of its mean",
+        "dem_steady": ("True when the window gives the steady power: it starts a quarter revolution or more after "
+                       "the drum, spans a revolution or more, and the power has no trend (1 %, 2 %) over it"),
+        "dem_unsteady_reason": "why the power is not the steady one (empty when dem_steady)",
         "dem_collisions_per_s": "finished contacts per second in the averaging window",
         "dem_dissipated_power_from_log_w": "energy dissipated by those contacts per second (the collision log)",
         "dem_specific_dissipated_power_w_per_kg": "dem_dissipated_power_from_log_w per kg of balls: how hard the "

@@ -67,10 +67,17 @@ class SimConfig:
         "doc": "run even at a time step at or above the Rayleigh step (refused otherwise)"})
     shear_modulus_scale: float = rng(1.0, 0.0, 1.0, lo_open=True, doc="stiffness reduction for speed (1 = physical)")
     settle_s: float = rng(0.5, 0.0, None, doc="time the charge settles before the vessel moves (s)")
-    duration_s: float = rng(1.0, 0.0, None, lo_open=True, doc="time simulated after settling (s)")
+    startup_revolutions: float | None = rng(1.0, 0.0, None, doc=(
+        "drum: turning before the power is averaged, in revolutions of the drum (or steady_after_s)"))
+    window_revolutions: float | None = rng(1.0, 0.0, None, lo_open=True, doc=(
+        "drum: the averaging window, in revolutions of the drum (or duration_s)"))
+    steady_after_s: float | None = rng(None, 0.0, None, doc=(
+        "the power is averaged over samples later than this after settling (s), with duration_s in place of "
+        "startup_revolutions and window_revolutions (null)"))
+    duration_s: float | None = rng(None, 0.0, None, lo_open=True, doc=(
+        "time simulated after settling (s), with steady_after_s in place of the revolutions"))
     sample_every_s: float = rng(0.01, 0.0, None, lo_open=True,
                                 doc="time between two recorded samples of loads and energy (s)")
-    steady_after_s: float = rng(0.5, 0.0, None, doc="power is averaged over samples later than this after start (s)")
     power_se_target: float | None = rng(None, 0.0, 1.0, lo_open=True, doc=(
         "drum: stop once the mean power's standard error is below this fraction of it (after at least one "
         "revolution of averaging; null: always the whole duration)"))
@@ -94,6 +101,16 @@ class SimConfig:
                "is faster); parallel: a launch a step"})
     collision_log: bool = field(default=True, metadata={"doc": "record every finished contact (collisions table)"})
     progress_every_s: float = rng(30.0, 0.0, None, lo_open=True, doc="wall-clock time between progress log lines (s)")
+
+    def __post_init__(self):
+        seconds, turns = (self.steady_after_s, self.duration_s), (self.startup_revolutions, self.window_revolutions)
+        if not ((None not in seconds and turns == (None, None)) or (None not in turns and seconds == (None, None))):
+            raise ConfigError(
+                f"sim: the start-up and the averaging window are given in revolutions (startup_revolutions="
+                f"{self.startup_revolutions}, window_revolutions={self.window_revolutions}) or in seconds "
+                f"(steady_after_s={self.steady_after_s}, duration_s={self.duration_s}): give one pair and set the "
+                "other null, e.g. sim.window_revolutions=2, or sim.steady_after_s=1 sim.duration_s=5 "
+                "sim.startup_revolutions=null sim.window_revolutions=null")
 
 
 @dataclass
@@ -337,8 +354,6 @@ class YieldModelConfig:
     tolerance: float = rng(0.01, 0.0, 1.0, lo_open=True, doc="fixed point: relative change of the residence time")
     max_iterations: int = rng(8, 1, None, doc="fixed point: DEM runs at most")
     dose_batches: int = rng(10, 2, None, doc="averaging window split into this many batches for standard errors")
-    run_lab_calibration: bool = field(default=False, metadata={
-        "doc": "energy rules: run the lab calibration (about a minute) when it is missing, instead of refusing"})
     lab: KineticsLabConfig = field(default_factory=KineticsLabConfig, metadata={
         "doc": "the lab experiments behind the line (yield_model.lab.*)"})
 
@@ -451,8 +466,6 @@ class DemConfig:
         "doc": "the surrogate's training table: a data/ table or a path (from `ballmill surrogate`)"})
     allow_extrapolation: bool = field(default=False, metadata={
         "doc": "evaluate designs outside the hull of the training runs (refused otherwise)"})
-    startup_revolutions: float = rng(0.5, 0.0, None, doc="surrogate runs: turning before the averaging window")
-    window_revolutions: float = rng(1.0, 0.0, None, lo_open=True, doc="surrogate runs: averaging window")
 
 
 @dataclass
@@ -639,8 +652,9 @@ class BenchConfig:
 class SurrogateConfig:
     """`ballmill surrogate`: DEM runs of drums on a space-filling design of the dimensionless
     groups (scrambled Sobol for training, a Latin hypercube inside its hull held out), each
-    cached like any drum run and averaged over dem.window_revolutions after
-    dem.startup_revolutions; the training table; the model's cross-validated and held-out error."""
+    cached like any drum run and averaged over sim.window_revolutions after
+    sim.startup_revolutions (sim=surrogate); the training table; the model's cross-validated and
+    held-out error."""
 
     bounds: SurrogateBounds = field(default_factory=SurrogateBounds, metadata={"doc": "the training box (bounds.*)"})
     points: int = rng(64, 8, None, doc="training runs (a power of two: Sobol)")
@@ -654,6 +668,11 @@ class SurrogateConfig:
     def __post_init__(self):
         if self.points & (self.points - 1):
             raise ConfigError(f"points={self.points}: a Sobol design needs a power of two (32, 64, 128, ...)")
+        hull = len(dataclasses.fields(SurrogateBounds)) + 1  # points of a simplex in the space of the inputs
+        fitted = self.points - math.ceil(self.points / self.folds)
+        if fitted < hull:
+            raise ConfigError(f"points={self.points} in folds={self.folds}: each fold is fitted on {fitted} runs, fewer "
+                              f"than the {hull} whose hull the surrogate needs; give more points or more folds")
 
 
 @dataclass
@@ -765,6 +784,8 @@ def to_object(cfg: DictConfig, schema: type, path: str):
         raise ConfigError(f"{path or 'options'}: {one_line(exc)}") from exc
     try:
         obj = OmegaConf.to_object(merged)
+    except ConfigError:  # a schema's own check (__post_init__): its message names the fields
+        raise
     except Exception as exc:  # a mandatory value (???) not given
         raise ConfigError(f"{path or 'options'}: {one_line(exc)}") from exc
     check(obj, path)

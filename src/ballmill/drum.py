@@ -33,7 +33,7 @@ from .dem import (
     init_taichi,
     memory_estimate_bytes,
 )
-from .dem.results import batch_mean
+from .dem.results import batch_mean, batch_trend
 from .dem.vtk import VtkWriter
 from .dem.walls import wall_slots
 from .files import exclusive, read_json, write_json
@@ -54,6 +54,12 @@ MORRELL_K = 1.26  # C-model: measured net power / the model's (Morrell 1996; wik
 LATTICE_SPACING = 2.04
 WALL_CLEARANCE = 1.05
 FCC_BASIS = np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]])
+# A steady averaging window (window_check): the power reaches its plateau 0.25-0.31 revolutions
+# after the drum starts (docs/explanation/case-studies.md); the trend's two-sided 1 % point of
+# Student's t with the 8 degrees of freedom of a line through 10 batch means, and a drift that
+# matters beside it.
+MIN_STARTUP_REVOLUTIONS, TREND_T, MIN_DRIFT = 0.25, 3.355, 0.02
+CONFIGURED = "the configured window (sim.window_revolutions or sim.duration_s)"
 
 
 class PowerWindow:
@@ -65,7 +71,7 @@ class PowerWindow:
     def __init__(self, recorder: Recorder, body: str, after_s: float, min_window_s: float, target: float):
         self.recorder, self.body, self.after, self.min_window, self.target = (recorder, body, after_s, min_window_s,
                                                                               target)
-        self.reason = "the configured duration (sim.duration_s)"
+        self.reason = CONFIGURED
         self.calls = 0
 
     def __call__(self) -> bool:
@@ -156,6 +162,41 @@ def drum_speed_rpm(drum: DrumConfig) -> float:
     return drum.fraction_of_critical * critical_speed_of(drum)
 
 
+def sim_in_seconds(sim: SimConfig, speed_rpm: float) -> SimConfig:
+    """sim with its start-up and averaging window in seconds (steady_after_s, duration_s) for a
+    vessel turning at speed_rpm: sim.startup_revolutions and sim.window_revolutions of its turn
+    where given (then set null), else as given."""
+    if sim.startup_revolutions is None:
+        return sim
+    turn = 60.0 / speed_rpm
+    return replace(sim, steady_after_s=sim.startup_revolutions * turn,
+                   duration_s=(sim.startup_revolutions + sim.window_revolutions) * turn,
+                   startup_revolutions=None, window_revolutions=None)
+
+
+def window_check(loads, summary: dict, settle_s: float, sample_every_s: float) -> dict:
+    """Whether a finished run's averaging window gives the steady power: it starts after
+    MIN_STARTUP_REVOLUTIONS of turning, spans at least one revolution, and the power has no trend
+    over it (the slope of its 10 batch means against time, significant at 1 % and moving the
+    power by more than MIN_DRIFT over the window).  The window's length in revolutions, the
+    trend's t statistic and drift, `steady`, and `unsteady_reason` ("" when steady)."""
+    turn = 60.0 / summary["speed_rpm"]
+    after, end = summary["averaging_from_s"], summary["simulated_s"]
+    startup = (after - settle_s) / turn
+    window = loads[(loads.body == "drum") & (loads.t_s > after)]
+    t_stat, drift = batch_trend(window.t_s.to_numpy(), window.power_w.to_numpy())
+    reasons = []
+    if startup < MIN_STARTUP_REVOLUTIONS - 1e-6:
+        reasons.append(f"the averaging starts {startup:.2g} revolutions after the drum starts, within its start-up "
+                       f"(at least {MIN_STARTUP_REVOLUTIONS:g})")
+    if end - after < turn - sample_every_s:  # the run ends on a whole sample
+        reasons.append(f"the averaging window is {(end - after) / turn:.2g} of a revolution, less than one")
+    if abs(t_stat) > TREND_T and abs(drift) > MIN_DRIFT:
+        reasons.append(f"the power still moves {drift:+.0%} over the window (trend t = {t_stat:.1f})")
+    return {"startup_revolutions": startup, "window_revolutions": (end - after) / turn, "power_trend_t": t_stat,
+            "power_drift_fraction": drift, "steady": not reasons, "unsteady_reason": "; ".join(reasons)}
+
+
 def lattice_sites(drum: DrumConfig, cell_m: float, basis: np.ndarray) -> np.ndarray:
     """Sites of a lattice (cubic cells of cell_m, `basis` points per cell in cell units) inside the
     drum with the wall clearance of its largest ball (and of the lifters' height)."""
@@ -239,6 +280,8 @@ def drum_system(drum: DrumConfig, materials: dict[str, Material], interactions, 
 
 
 UNKEYED_SIM_FIELDS = ("threads", "neighbour_skin", "launch", "checkpoint_every_wall_s", "progress_every_s")
+# left out of a key when null: an unset target, and the revolutions, which sim_in_seconds has made seconds
+UNSET_SIM_FIELDS = ("power_se_target", "startup_revolutions", "window_revolutions")
 
 
 def check_stl(path: str) -> None:
@@ -324,10 +367,11 @@ def check_memory(drum: DrumConfig, sim: SimConfig, walls: tuple) -> None:
 def dem_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str:
     """Hash of everything that determines a drum DEM result (prices and feeds do not, nor the
     thread count, the neighbour skin, the launch mode, checkpoints or progress: results are
-    identical bits whatever they are; an unset power_se_target, a smooth liner and an empty
-    charge are left out, so runs keep the keys they had before those existed)."""
-    numerics = {k: v for k, v in asdict(sim).items()
-                if k not in UNKEYED_SIM_FIELDS and not (k == "power_se_target" and v is None)}
+    identical bits whatever they are; the run's length in seconds, so that revolutions and the
+    seconds they make share a key; an unset power_se_target, a smooth liner and an empty charge
+    are left out, so runs keep the keys they had before those existed)."""
+    numerics = {k: v for k, v in asdict(sim_in_seconds(sim, drum_speed_rpm(drum))).items()
+                if k not in UNKEYED_SIM_FIELDS and not (k in UNSET_SIM_FIELDS and v is None)}
     mill = asdict(drum)
     if drum.liner.kind == "smooth":
         del mill["liner"]
@@ -345,7 +389,8 @@ def settle_key(drum: DrumConfig, materials, interactions, sim: SimConfig) -> str
     the drum's speed and the run's length and averaging, and the neighbour skin (which sizes
     the saved cell grid)."""
     still = dem_key(replace(drum, speed_rpm=None, fraction_of_critical=1.0), materials, interactions,
-                    replace(sim, duration_s=1.0, steady_after_s=0.0, power_se_target=None))
+                    replace(sim, duration_s=1.0, steady_after_s=0.0, startup_revolutions=None, window_revolutions=None,
+                            power_se_target=None))
     return hashlib.sha256(f"{still} skin {sim.neighbour_skin!r}".encode()).hexdigest()[:16]
 
 
@@ -367,18 +412,22 @@ def simulate_drum(drum: DrumConfig, materials, interactions, sim: SimConfig, out
     torque and power; the tables go to out_dir as Parquet (and VTK files when asked).  Two jobs
     asking for the same entry at once: the second waits for the first and reuses its result.
     With beds_dir, the settled charge is shared with every run of the same drum and charge
-    (other speeds, durations, windows): the first saves it there, the others start from it."""
+    (other speeds, durations, windows): the first saves it there, the others start from it.
+    The summary says whether the averaging window gave the steady power (window_check)."""
     out_dir = Path(out_dir)
     summary_path = out_dir / "dem_summary.json"
+    sim = sim_in_seconds(sim, drum_speed_rpm(drum))
     key = dem_key(drum, materials, interactions, sim)
     with exclusive(out_dir / ".lock"):
         cached = read_json(summary_path)
         if cached is not None and cached.get("key") == key:
             log.info("reusing the DEM result in %s", out_dir)
-            return DrumRun(cached, Results.read(out_dir))
-        if summary_path.exists():
-            log.warning("%s: unreadable or of another run: running it again", summary_path)
-        return run_drum_dem(drum, materials, interactions, sim, out_dir, key, beds_dir)
+            run = DrumRun(cached, Results.read(out_dir))
+        else:
+            if summary_path.exists():
+                log.warning("%s: unreadable or of another run: running it again", summary_path)
+            run = run_drum_dem(drum, materials, interactions, sim, out_dir, key, beds_dir)
+    return DrumRun(run.summary | window_check(run.results.loads, run.summary, sim.settle_s, sim.sample_every_s), run.results)
 
 
 def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_dir: Path, key: str,
@@ -426,7 +475,7 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
         "torque_axis_with_rolling_nm": float((loads.torque_axis_nm + loads.torque_rolling_axis_nm).mean()),
         "power_w": power, "power_se_w": power_se, "power_with_rolling_w": power_roll,
         "simulated_s": engine.time_s, "averaging_from_s": after,
-        "averaging_ended_by": window.reason if window else "the configured duration (sim.duration_s)",
+        "averaging_ended_by": window.reason if window else CONFIGURED,
         **impact_statistics(results.collisions, after, engine.time_s, float(engine.p.mass_np.sum())),
         **shape,
     }

@@ -16,6 +16,8 @@ from omegaconf.errors import OmegaConfBaseException
 
 from .config import ConfigError, one_line
 from .dem.runtime import LOCAL_JOBS_ENV
+from .files import read_json
+from .run import RECORD
 from .scenario import compose, load
 from .studies import check_machine, plan
 
@@ -99,6 +101,7 @@ def check_jobs(overrides: list[str], multirun: bool) -> Path | None:
     return sweep_dir
 
 
-def failed_since(sweep_dir: Path, started_s: float) -> list[Path]:
-    """Job folders of the sweep whose failure was recorded after started_s (time.time())."""
-    return sorted(p.parent for p in sweep_dir.glob("*/FAILED.json") if p.stat().st_mtime >= started_s - 1)
+def records_since(sweep_dir: Path, started_s: float) -> list[tuple[Path, dict]]:
+    """(folder, record) of each job of the sweep whose record was written after started_s (time.time())."""
+    found = ((p.parent, read_json(p)) for p in sorted(sweep_dir.glob(f"*/{RECORD}")) if p.stat().st_mtime >= started_s - 1)
+    return [(folder, record) for folder, record in found if record is not None]

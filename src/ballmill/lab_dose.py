@@ -6,13 +6,15 @@ calibrates the dose line; the same run holds every alternative of the sensitivit
 (yield_model.lab.frequencies_hz x ball_diameters_m x one or two balls).  The result is kept
 in <cache_dir>/yield_calibration/<key>/ (collisions.parquet, conditions.csv,
 calibration.json), the key hashing what determines it; designs under an energy rule read it
-there, and are refused until it exists.
+there, and run it first when it is missing (once: other jobs wait for it and reuse it).
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import logging
+import time
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -25,6 +27,7 @@ from .lab import conditions, jar_ball_mass_kg, simulate_mm400, wall_interaction
 from .scenario import Scenario
 from .yields import MEASURE, DoseLine, fit_dose_line
 
+log = logging.getLogger(__name__)
 BALLS = (1, 2)  # the MM400 jar holds one or two balls of these sizes
 
 
@@ -70,7 +73,10 @@ def simulate_kinetics_lab(s: Scenario) -> Path:
     folder = calibration_folder(s)
     with exclusive(folder / ".lock"):  # another job computing it: wait, then reuse
         if not calibrated(s):
+            log.info("no lab calibration for these yield_model.lab conditions yet: running it into %s", folder)
+            started = time.perf_counter()
             run_kinetics_lab(s, folder)
+            log.info("lab calibration done in %.0f s", time.perf_counter() - started)
     return folder
 
 
@@ -95,13 +101,9 @@ def run_kinetics_lab(s: Scenario, folder: Path) -> None:
 
 
 def lab_rates(s: Scenario, threshold_j: float) -> pd.DataFrame:
-    """Dose rates per kg of balls of every lab condition (a ConfigError when not simulated yet)."""
-    folder = calibration_folder(s)
+    """Dose rates per kg of balls of every lab condition (simulated first when missing)."""
+    folder = simulate_kinetics_lab(s)
     meta = read_json(folder / "calibration.json")
-    if meta is None:
-        raise ConfigError(f"yield_model.rule={s.yield_model.rule}: no lab calibration for these yield_model.lab "
-                          f"conditions in {folder}: run `ballmill run study=yield_calibration` (with the same "
-                          "yield_model.* and lab.* overrides) first, or set yield_model.run_lab_calibration=true")
     conds = pd.read_csv(folder / "conditions.csv")
     collisions = pd.read_parquet(folder / "collisions.parquet")
     rows = [c | dose_rates(collisions[collisions.replica == c["replica"]], meta["settle_s"], meta["duration_s"],

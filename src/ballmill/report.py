@@ -117,7 +117,8 @@ def design_table(name: str, ok: pd.DataFrame, spec: StudyReport) -> list[str]:
 
 COLUMNS = ["bpr", "region", "shape_rule", "pet_feed_kg_per_h", "naoh_feed_kg_per_h", "diameter_m", "length_m",
            "ball_count", "fraction_of_critical", "dem_dt_s", "dem_power_w", "dem_power_se_w", "bond_rowland_power_w",
-           "electricity_usd_per_yr", "electricity_usd_per_t_pet", "purchase_cost_usd", "purchase_cost_usd_per_kg_per_h", "yield_percent"]
+           "electricity_usd_per_yr", "electricity_usd_per_t_pet", "purchase_cost_usd", "purchase_cost_usd_per_kg_per_h", "yield_percent",
+           "dem_steady"]
 IMPACT_COLUMNS = ["dem_collisions_per_s", "dem_ball_ball_impact_energy_mean_j", "dem_ball_ball_impact_energy_p90_j",
                   "dem_ball_wall_drum_impact_energy_mean_j", "dem_ball_wall_drum_impact_energy_p90_j",
                   "dem_specific_dissipated_power_w_per_kg", "collision_power_w_per_kg_pet",
@@ -440,6 +441,8 @@ def report(sweep_dir: Path, out_dir: Path) -> Path:
         lines += SECTIONS[section](name, ok, spec, out_dir)
     for rec in failed.itertuples():
         lines.append(f"- FAILED `{rec.job_dir}`: {rec.error}")
+    for rec in ok[ok.dem_steady.eq(False)].itertuples() if "dem_steady" in ok else ():
+        lines.append(f"- UNSTEADY `{rec.job_dir}`: the power is not the steady one: {rec.dem_unsteady_reason}")
     path = out_dir / f"{name}.md"
     path.write_text("\n".join(lines) + "\n")
     return path

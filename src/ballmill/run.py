@@ -36,7 +36,7 @@ from .studies import plan
 
 log = logging.getLogger(__name__)
 RECORD, FAILED, RESOLVED = "record.json", "FAILED.json", "config_resolved.yaml"
-FAILED_JOBS: list[Path] = []  # folders of the jobs of this process that failed (read by the command line)
+JOBS: list[tuple[Path, dict]] = []  # folder and record of each job this process ran (read by the command line)
 
 
 def provenance(sim) -> dict:
@@ -143,7 +143,9 @@ def main(cfg: DictConfig) -> str:
     write_record(record, out_dir)
     if record["status"] != "ok":
         write_json(out_dir / FAILED, record)
-        FAILED_JOBS.append(out_dir)
+    if record.get("dem_steady") is False:
+        log.warning("the power is not the steady one: %s", record["dem_unsteady_reason"])
+    JOBS.append((out_dir, record))
     log_sweep_progress()
     return record["status"]
 

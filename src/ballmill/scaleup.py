@@ -10,12 +10,14 @@ fraction of its critical speed.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+import re
+from dataclasses import asdict, dataclass, fields
 
 from .config import ConfigError, ScaleupConfig
 from .data import lookup, table
 
 POUND_KG = 0.45359237
+CHARGE_COLUMN = re.compile(r"charge_([0-9.]+)mm_balls")  # a graded charge's size in a record
 
 
 def stoichiometric_naoh_kg_per_h(pet_kg_per_h: float) -> float:
@@ -64,6 +66,15 @@ class MillDesign:
         rec = asdict(self)
         sizes = zip(rec.pop("charge_diameters_m"), rec.pop("charge_counts"))
         return rec | {f"charge_{1000 * d:g}mm_balls": n for d, n in sizes}
+
+    @classmethod
+    def from_record(cls, rec: dict) -> MillDesign:
+        """The design `as_record` flattened (a row of a sweep's table, whose other jobs' charge
+        columns are NaN here)."""
+        sizes = sorted(((float(m[1]) / 1000, int(n)) for k, n in rec.items()
+                        if (m := CHARGE_COLUMN.fullmatch(k)) and not math.isnan(n)), reverse=True)
+        return cls(**{f.name: rec[f.name] for f in fields(cls) if not f.name.startswith("charge_")},
+                   charge_diameters_m=tuple(d for d, _ in sizes), charge_counts=tuple(n for _, n in sizes))
 
 
 def design_mill(cfg: ScaleupConfig) -> MillDesign:

@@ -34,6 +34,7 @@ from .drum import (
     drum_spec,
     drum_speed_rpm,
     mean_ball_diameter_m,
+    sim_in_seconds,
     simulate_drum,
 )
 from .economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
@@ -46,7 +47,6 @@ from .lab_dose import (
     lab_dose_line,
     lab_rates,
     lab_sim,
-    simulate_kinetics_lab,
 )
 from .liner import liner_profile
 from .plots import plot_bed, plot_drum_loads, save_figure
@@ -108,8 +108,9 @@ def cuda_available() -> bool:
     return bool(is_arch_supported(ti.cuda))
 
 
-def check_window(sim: SimConfig) -> None:
-    """An averaging window with samples in it."""
+def check_window(sim: SimConfig, drum: DrumConfig) -> None:
+    """An averaging window with samples in it, for the drum's speed."""
+    sim = sim_in_seconds(sim, drum_speed_rpm(drum))
     if sim.steady_after_s >= sim.duration_s:
         raise ConfigError(f"sim.steady_after_s={sim.steady_after_s} leaves no samples to average in "
                           f"sim.duration_s={sim.duration_s}: make it shorter than the duration")
@@ -149,7 +150,7 @@ def plan_drum(s: Scenario) -> Plan:
     if s.dem.mode != "full":
         raise ConfigError("dem=surrogate: study=drum is the DEM of the mill group's drum; the surrogate serves "
                           "study=design, plant and cheapest_mill")
-    check_window(s.sim)
+    check_window(s.sim, s.mill)
     check_numerics(drum_spec(s.mill, s.materials, s.interactions, s.sim), s.sim, "mill")
 
     def execute(out_dir: Path) -> dict:
@@ -166,11 +167,11 @@ def plan_drum(s: Scenario) -> Plan:
     return Plan({}, execute)
 
 
-def mill_drum(s: Scenario, design) -> DrumConfig:
+def mill_drum(mill: DrumConfig, design) -> DrumConfig:
     """The designed mill as a drum: its size, speed and charge (graded when the scale-up's is), the
     mill group's liner (lifters sized by height_to_diameter grow with it)."""
     charge = [BallSizeConfig(d, n) for d, n in zip(design.charge_diameters_m, design.charge_counts)]
-    return replace(s.mill, inner_diameter_m=design.diameter_m, inner_length_m=design.length_m,
+    return replace(mill, inner_diameter_m=design.diameter_m, inner_length_m=design.length_m,
                    ball_radius_m=design.ball_radius_m, ball_count=design.ball_count, speed_rpm=design.speed_rpm,
                    charge=charge)
 
@@ -189,13 +190,13 @@ def check_dem_mode(s: Scenario, design=None) -> None:
                           "surrogate does not predict; use dem=full, or yield_model=specific_energy")
     model = load_surrogate(s.dem.table)
     if design is not None:
-        predict_drum(model, mill_drum(s, design), s.materials, s.interactions, s.dem.allow_extrapolation)
+        predict_drum(model, mill_drum(s.mill, design), s.materials, s.interactions, s.dem.allow_extrapolation)
 
 
 def mechanics(s: Scenario, design, out_dir: Path | None = None) -> tuple[dict, dict]:
     """The design's mill: its record (dem_*: power, its standard error, ...) and its dose rates
     per kg of PET held up, from the DEM (dem=full) or the surrogate (dem=surrogate, marked)."""
-    drum, pet_kg = mill_drum(s, design), pet_holdup_kg(design)
+    drum, pet_kg = mill_drum(s.mill, design), pet_holdup_kg(design)
     if s.dem.mode == "full":
         run, dem_dir = run_drum(s, drum, out_dir)
         return drum_record(run, dem_dir) | {"dem_source": "full"}, run_dose(run, pet_kg, s)
@@ -231,19 +232,18 @@ class YieldPlan:
         """Run the deferred lab calibration; the dose line's record it gives (else nothing new)."""
         if not self.deferred:
             return {}
-        simulate_kinetics_lab(s)
-        self.line, self.deferred = lab_dose_line(s), False
+        self.line, self.deferred = lab_dose_line(s), False  # simulates the lab first
         return self.record(s)
 
 
 def yield_plan(s: Scenario) -> YieldPlan:
-    """Refuses a BPR outside the line's range, and an energy rule whose lab calibration is
-    missing (unless yield_model.run_lab_calibration)."""
+    """Refuses a BPR outside the line's range; under an energy rule whose lab calibration is
+    missing, the calibration runs first when the plan executes (planning simulates nothing)."""
     model = s.yield_model
     line_y, extrapolated = bpr_line_yield(s.scaleup.bpr, model)
     energy = model.rule != "bpr_line"
-    deferred = energy and model.run_lab_calibration and not calibrated(s)  # the lab DEM runs in execute
-    line = lab_dose_line(s) if energy and not deferred else None  # refused until the lab is calibrated
+    deferred = energy and not calibrated(s)  # the lab DEM runs in execute
+    line = lab_dose_line(s) if energy and not deferred else None
     target = model.target_yield_percent or line_y if energy and model.mode == "target_yield" else None
     return YieldPlan(line_y, extrapolated, line, target, deferred)
 
@@ -252,7 +252,7 @@ def check_design(s: Scenario, design) -> None:
     """The costs' data tables exist; the mill's numerics are sound."""
     purchase_cost_usd(design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, s.economics)
     margin_usd_per_t_tpa(s.economics)
-    check_numerics(drum_spec(mill_drum(s, design), s.materials, s.interactions, s.sim), s.sim, "mill")
+    check_numerics(drum_spec(mill_drum(s.mill, design), s.materials, s.interactions, s.sim), s.sim, "mill")
 
 
 def plan_design(s: Scenario) -> Plan:
@@ -260,8 +260,8 @@ def plan_design(s: Scenario) -> Plan:
     collision dose; the yield model's yield (under an energy rule with a target, the residence
     time that reaches it); costs and margin."""
     scale, model = s.scaleup, s.yield_model
-    check_window(s.sim)
     design = design_mill(scale)
+    check_window(s.sim, mill_drum(s.mill, design))
     check_dem_mode(s, design)
     y = yield_plan(s)
     check_design(s, design)
@@ -366,8 +366,7 @@ def plan_yield_calibration(s: Scenario) -> Plan:
 
     def execute(out_dir: Path) -> dict:
         check_machine(s.sim)
-        simulate_kinetics_lab(s)
-        rates = lab_rates(s, model.impact_threshold_j)
+        rates = lab_rates(s, model.impact_threshold_j)  # simulated first when missing
         nominal = rates.query("nominal").iloc[0]
         out = {"calibration_dir": str(calibration_folder(s)), "impact_threshold_j": model.impact_threshold_j}
         for rule, measure in MEASURE.items():
@@ -467,12 +466,12 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
     if model.rule != "bpr_line" and model.mode == "fixed_time":
         raise ConfigError("study=cheapest_mill: yield_model.mode=fixed_time gives no target to reach; "
                           "use yield_model.mode=target_yield")
-    check_window(s.sim)
     fast = replace(s, dem=replace(s.dem, mode="surrogate"))
     check_dem_mode(fast)
     y = yield_plan(s)
     ranges = knob_ranges(s.optimiser)
     paper = design_mill(s.scaleup)
+    check_window(s.sim, mill_drum(s.mill, paper))
     check_design(s, paper)
     record = {"bpr": s.scaleup.bpr, "region": s.scaleup.region, "yield_rule": model.rule,
               "bpr_line_yield_percent": y.line_yield_percent, "optimiser_trials": s.optimiser.trials,
@@ -492,8 +491,9 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
         return rec["annualised_cost_usd_per_yr"], 0.0 if rec["dem_inside_hull"] else 1.0
 
     def confirm(design, label: str, out_dir: Path) -> dict:
-        """The DEM of a mill the surrogate chose, at the surrogate's protocol (its speed's revolutions)."""
-        full = replace(s, dem=replace(s.dem, mode="full"), sim=revolution_sim(s.sim, s.dem, design.speed_rpm))
+        """The DEM of a mill the surrogate chose, at the run's preset (its speed's revolutions; the
+        cheapest-mill sweeps run sim=surrogate, the surrogate's own protocol)."""
+        full = replace(s, dem=replace(s.dem, mode="full"), sim=revolution_sim(s.sim, design.speed_rpm))
         folder = out_dir / label
         folder.mkdir(exist_ok=True)
         dem, rates = mechanics(full, design, folder)

@@ -1,8 +1,8 @@
 """The DEM engine: builds the parts of a system and runs whole steps.
 
 A step (velocity Verlet, LIGGGHTS' initial/final integrate):
-  1. rebuild the neighbour list if the last step flagged it   (neighbours.py)
-  2. half kick and drift                                        (particles.py)
+  1. half kick and drift                                        (particles.py)
+  2. rebuild the neighbour list if the last step flagged it   (neighbours.py)
   3. wall poses at the new time                                 (motion.py)
   4. sphere-sphere contacts, once per pair, into the list slots (pairs.py)
   5. per particle: gather the pair slots, wall contacts, half kick, skin check
@@ -16,9 +16,11 @@ Three ways to run steps, chosen once per system (`Engine.launch`):
   is faster, as when another process takes one of the cores (team.Pacer);
 - parallel: one kernel launch per step, parallel over particles (a GPU).
 All call the same functions per particle.  Serial and team runs end a particle's step and
-start its next (half kick, drift) in one pass and rebuild a due list after that drift; that
-changes no bits (when the list is rebuilt does not change the results), so every launch gives
-identical results, and none depends on the number of threads.
+start its next (half kick, drift) in one pass; every launch rebuilds a due list after the
+drift, from the positions it reached, so the rebuilds fall on the same steps whatever the
+launch (and its length, or a pacer's switches): the rebuild count is a function of the
+trajectory alone.  When the list is rebuilt changes no bits anyway (it holds every contact
+then), so every launch gives identical results, and none depends on the number of threads.
 """
 
 import logging
@@ -237,6 +239,9 @@ class Engine:
                         self.finish(i, k, nsteps > 0)
                         if s < nsteps - 1:
                             self.p.kick_drift(i, self.monitor)
+        ti.loop_config(serialize=True)
+        for _ in range(1):  # a team launch that follows reads the replicas' flags as one
+            self.nl.gather_due()
 
     @ti.func
     def team_phase(self, t, phase_id, k, phase: ti.template(), drift):
@@ -336,10 +341,13 @@ class Engine:
             return
         if self.launch == "parallel":
             for _ in range(nsteps):
-                if self._due:
-                    self.nl.build_all()
                 self.step_index += 1
-                self._due = bool(self._step(self.step_index, STEP))
+                if self._due:  # after the drift, as the serial and team launches rebuild
+                    self._step(self.step_index, DRIFT)
+                    self.nl.build_all()
+                    self._due = bool(self._step(self.step_index, STEP & ~DRIFT))
+                else:
+                    self._due = bool(self._step(self.step_index, STEP))
         elif self.pacer:
             done = 0
             while done < nsteps:

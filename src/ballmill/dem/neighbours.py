@@ -265,6 +265,14 @@ class NeighbourList:
         self.builds[None] += 1
 
     @ti.func
+    def gather_due(self):
+        """any_due from the replicas' flags (per-replica rebuilds clear theirs, not any_due)."""
+        due = 0
+        for r in range(self.n_rep):
+            due |= self.due[r]
+        self.any_due[None] = due
+
+    @ti.func
     def bin_all(self):
         """Every particle into its cell, serially in id order, so each cell is already sorted."""
         if ti.static(self.use_grid):

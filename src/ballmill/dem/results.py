@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,6 +53,24 @@ def batch_mean(values: np.ndarray, blocks: int = 10) -> tuple[float, float]:
         return float(np.mean(values)) if len(values) else float("nan"), float("nan")
     means = np.array([c.mean() for c in np.array_split(values, blocks)])
     return float(values.mean()), float(means.std(ddof=1) / np.sqrt(blocks))
+
+
+def batch_trend(times: np.ndarray, values: np.ndarray, blocks: int = 10) -> tuple[float, float]:
+    """The straight line through a series' `blocks` batch means against time: its slope's t
+    statistic and the change it makes over the series as a fraction of the mean (nan, nan:
+    too short)."""
+    if len(values) < blocks:
+        return float("nan"), float("nan")
+    parts = np.array_split(np.arange(len(values)), blocks)
+    t = np.array([times[c].mean() for c in parts])
+    m = np.array([values[c].mean() for c in parts])
+    x = t - t.mean()
+    slope = float(x @ (m - m.mean()) / (x @ x))
+    residual = m - m.mean() - slope * x
+    se = float(np.sqrt(residual @ residual / (blocks - 2) / (x @ x)))
+    mean = float(values.mean())
+    t_stat = slope / se if se > 0 else (0.0 if slope == 0 else math.copysign(math.inf, slope))
+    return t_stat, slope * (times[-1] - times[0]) / mean if mean else float("nan")
 
 
 class ParquetSink:

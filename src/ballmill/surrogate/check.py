@@ -3,15 +3,14 @@ resolved config) predicted by the surrogate, beside the power and collision powe
 
 from __future__ import annotations
 
-from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from omegaconf import OmegaConf
 
+from ..config import DrumConfig, material_tables, to_object
 from ..scaleup import MillDesign
-from ..scenario import compose, load
 from .model import Surrogate, predict_drum
 
 
@@ -20,9 +19,10 @@ def job_prediction(rec: dict, model: Surrogate) -> dict:
     from ..studies import mill_drum
 
     resolved = OmegaConf.load(Path(rec["job_dir"]) / "config_resolved.yaml")
-    s = load(OmegaConf.merge(compose("config", []), resolved))  # groups added since the sweep ran: defaults
-    design = MillDesign(**{f.name: rec[f.name] for f in fields(MillDesign)})
-    p = predict_drum(model, mill_drum(s, design), s.materials, s.interactions, extrapolate=True)
+    mill = to_object(resolved.mill, DrumConfig, "mill")  # fields added since the sweep ran: their defaults
+    materials, interactions = material_tables(resolved)
+    design = MillDesign.from_record(rec)
+    p = predict_drum(model, mill_drum(mill, design), materials, interactions, extrapolate=True)
     collision_dem = rec.get("collision_power_w_per_kg_pet", np.nan) * design.pet_feed_kg_per_h \
         * design.residence_time_min / 60
     return {"job": Path(rec["job_dir"]).name, "balls": p["balls"], "fraction_of_critical": p["fraction_of_critical"],
@@ -35,11 +35,16 @@ def job_prediction(rec: dict, model: Surrogate) -> dict:
 
 
 def compare_sweep(sweep_dir: Path, model: Surrogate) -> pd.DataFrame:
-    """One row per finished job of the sweep whose power came from the DEM."""
+    """One row per finished job of the sweep whose power came from the DEM (a design's mill: a
+    lab or calibration study has none)."""
     from ..report import collect
 
     jobs = collect(sweep_dir)
-    jobs = jobs[(jobs.status == "ok") & (jobs.get("dem_source", pd.Series("full", index=jobs.index))
-                                         .fillna("full") == "full")]
+
+    def column(name: str, missing) -> pd.Series:
+        return jobs.get(name, pd.Series(missing, index=jobs.index))
+
+    jobs = jobs[(jobs.status == "ok") & (column("dem_source", "full").fillna("full") == "full")
+                & column("dem_power_w", np.nan).notna() & column("pet_feed_kg_per_h", np.nan).notna()]
     return pd.DataFrame([job_prediction(rec, model) for rec in jobs.to_dict("records")])
 

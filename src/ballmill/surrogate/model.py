@@ -149,7 +149,7 @@ def error_table(table: pd.DataFrame, folds: int, seed: int = 0) -> tuple[pd.Data
     model = Surrogate.fit(ok[ok.split == "train"], seed)
     runs = [relative_errors(ok[ok.split == s], model.predict(ok[ok.split == s][list(INPUTS)].to_numpy(float),
                                                              extrapolate=True)).assign(split=label)
-            for s, label in (("train", "training fit"), ("holdout", "held out"))]
+            for s, label in (("train", "training fit"), ("holdout", "held out")) if (ok.split == s).any()]
     runs = pd.concat([*runs, cross_validation(table, folds, seed)], ignore_index=True)
     rows = []
     for (split, name) in ((sp, o) for sp in ("training fit", "cross-validation", "held out") for o in OUTPUTS):

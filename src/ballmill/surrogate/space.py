@@ -6,8 +6,8 @@ ball-wall contacts (steel on steel in an industrial mill: one pair for both).
 Outputs, per unit of the mill's gravitational power scale M g omega D/2 (M the ball mass):
 the power number P / (M g omega D/2) and the collision power number (energy dissipated in
 collisions per second, over the same scale).  Geometrically similar mills at the same groups
-share these numbers (Hertz stiffness aside: the runs are at sim=ci, whose effect on power the
-stiffness study puts at ~1 %), so at a fixed phi the power grows as M sqrt(g D) g ~ D^2.5 L
+share these numbers (Hertz stiffness aside: the runs are at sim=surrogate, a hundredth of steel's
+stiffness, which puts the power 1.6-1.7 % below steel's), so at a fixed phi the power grows as M sqrt(g D) g ~ D^2.5 L
 (Bond; Hogg & Fuerstenau 1972), which the dimensionless form carries without being learnt.
 """
 

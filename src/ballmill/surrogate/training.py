@@ -4,8 +4,8 @@ Training points: a scrambled Sobol sequence over the box of SurrogateConfig.boun
 points: a Latin hypercube (another seed) kept where it lies inside the training points' hull,
 the region the surrogate answers for.  Each point is a drum of 80 mm balls (D from D/d), run
 like any other (cached under <cache_dir>/dem/<key>: an interrupted training resumes with the
-finished runs), settled for sim.settle_s, then turned (revolution_sim); the
-power number and collision power number are averaged over the window with their standard
+finished runs), at the surrogate's protocol (sim=surrogate: settled, then turned for its
+start-up and window revolutions, revolution_sim); the power number and collision power number are averaged over the window with their standard
 errors.  The table carries the resolved settings and its source in columns and a JSON beside it.
 """
 
@@ -22,16 +22,16 @@ import pandas as pd
 from joblib import Parallel, delayed
 from scipy.stats import qmc
 
-from ..config import ConfigError, DemConfig, SimConfig, SurrogateBounds, SurrogateConfig
+from ..config import ConfigError, SimConfig, SurrogateBounds, SurrogateConfig
 from ..dem import SimulationError
 from ..dose import dose_rates
-from ..drum import ball_count, dem_key, drum_speed_rpm, simulate_drum
+from ..drum import ball_count, dem_key, drum_speed_rpm, sim_in_seconds, simulate_drum
 from ..files import write_atomic, write_json
 from ..scenario import Scenario
 from .space import INPUTS, drum_at, power_scale_w
 
 log = logging.getLogger(__name__)
-SOURCE = "ballmill drum DEM (Hertz-Mindlin, sim=ci stiffness); regenerate with `ballmill surrogate`"
+SOURCE = "ballmill drum DEM (Hertz-Mindlin, sim=surrogate); regenerate with `ballmill surrogate`"
 HOLDOUT_DRAWS = 20  # Latin-hypercube candidates per held-out point wanted (most fall outside the hull in 6-D)
 
 
@@ -61,19 +61,16 @@ def design(cfg: SurrogateConfig) -> pd.DataFrame:
     return pd.concat(frames, ignore_index=True).rename_axis("point").reset_index()
 
 
-def revolution_sim(sim: SimConfig, dem: DemConfig, speed_rpm: float) -> SimConfig:
-    """The surrogate's protocol: after settling, dem.startup_revolutions of turning, then the
-    averaging window of dem.window_revolutions (100 samples a revolution)."""
-    turn = 60.0 / speed_rpm
-    return replace(sim, duration_s=(dem.startup_revolutions + dem.window_revolutions) * turn,
-                   steady_after_s=dem.startup_revolutions * turn, sample_every_s=turn / 100)
+def revolution_sim(sim: SimConfig, speed_rpm: float) -> SimConfig:
+    """A drum's run at the preset's start-up and window, 100 samples a revolution (in seconds)."""
+    return sim_in_seconds(replace(sim, sample_every_s=60.0 / speed_rpm / 100), speed_rpm)
 
 
 def simulate_point(s: Scenario, cfg: SurrogateConfig, point: dict) -> dict:
     """One design point's DEM (cached) and its dimensionless outputs with standard errors."""
     drum, pairs = drum_at(point, cfg.ball_radius_m, s.mill, s.interactions)
     speed = drum_speed_rpm(drum)
-    sim = revolution_sim(s.sim, s.dem, speed)
+    sim = revolution_sim(s.sim, speed)
     key = dem_key(drum, s.materials, pairs, sim)
     started = time.time()
     try:
@@ -113,8 +110,8 @@ def train_table(s: Scenario, cfg: SurrogateConfig) -> pd.DataFrame:
                  row["point"], row["status"], row.get("wall_time_s", 0.0))
     table = pd.DataFrame(rows).sort_values("point")
     return table.assign(source=SOURCE, year=time.gmtime().tm_year, url="", ball_radius_m=cfg.ball_radius_m,
-                        settle_s=s.sim.settle_s, startup_revolutions=s.dem.startup_revolutions,
-                        window_revolutions=s.dem.window_revolutions, shear_modulus_scale=s.sim.shear_modulus_scale)
+                        settle_s=s.sim.settle_s, startup_revolutions=s.sim.startup_revolutions,
+                        window_revolutions=s.sim.window_revolutions, shear_modulus_scale=s.sim.shear_modulus_scale)
 
 
 def write_table(table: pd.DataFrame, s: Scenario, cfg: SurrogateConfig, out_dir: Path) -> Path:
