@@ -329,9 +329,9 @@ def test_every_ranged_field_refuses_a_value_outside_its_range(prefix, schema, pa
 
 
 # Numbers any value of which is meaningful (finite): the BPR line's coefficients and the range of
-# its experiments, and the salt's price (a sale above zero, a disposal below).
+# its experiments.
 ANY_VALUE = {"yield_model.bpr_slope_percent", "yield_model.bpr_intercept_percent", "yield_model.bpr_min",
-             "yield_model.bpr_max", "plant.na2so4_usd_per_t"}
+             "yield_model.bpr_max"}
 
 
 def test_every_number_field_has_a_range_unless_any_value_is_meaningful():

@@ -2,7 +2,7 @@
 an uninterrupted run, bit for bit (a smooth drum of one ball size, and a lifter drum with a
 bidisperse charge).  The run is killed (SIGKILL, as a crash or an out-of-memory kill would end
 it) by itself, right after the checkpoint of a given sample: where it dies does not depend on
-how fast the machine is."""
+how fast the machine is.  BALLMILL_TEST_ARCH=cuda runs the drums on a GPU."""
 
 import json
 import signal
@@ -30,7 +30,8 @@ if len(sys.argv) > 2:  # killed right after the checkpoint before this sample
             os.kill(os.getpid(), signal.SIGKILL)
     Checkpoint.save = save_then_die
 # a checkpoint at every sample (the first after 1 ms of wall-clock time) of 60
-sim = SimConfig(shear_modulus_scale=1e-2, settle_s=0.1, startup_revolutions=None, window_revolutions=None,
+sim = SimConfig(arch=os.environ.get("BALLMILL_TEST_ARCH", "cpu"), shear_modulus_scale=1e-2, settle_s=0.1,
+                startup_revolutions=None, window_revolutions=None,
                 steady_after_s=0.1, duration_s=0.5, sample_every_s=0.01, checkpoint_every_wall_s=1e-3)
 drum = {drum}
 simulate_drum(drum, {"steel": MaterialConfig()}, {"steel-steel": InteractionConfig(0.5, 0.5, 0.01)}, sim, sys.argv[1])
