@@ -283,14 +283,14 @@ def stacked(ax, t: pd.DataFrame, groups: dict[str, list[str]], total: str, band:
     ax.axhline(t[yardstick].iloc[0], color="0.3", ls="--", lw=1, label="virgin TPA")
     ax.axhline(0, color="k", lw=0.6)
     ax.set_ylabel(unit)
-    ax.legend(fontsize=6, loc="upper right", ncol=2)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3)
 
 
 def plot_msp(table: pd.DataFrame, by: str, label: str):
     """Minimum selling price (left) and cradle-to-gate footprint (right) of rTPA per case:
     each broken down, with its Monte Carlo band and median and the virgin TPA's value."""
     t = table.sort_values(by if by != "region" else "plant_fresh_pet_kg_per_h")
-    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.8))
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 6))
     stacked(left, t, MSP_GROUPS, "msp_usd_per_kg", "msp_p{}_usd_per_kg", "$ per kg rTPA", "virgin_tpa_usd_per_kg")
     stacked(right, t, GWP_GROUPS, "gwp_total_kg_per_kg", "gwp_p{}_kg_per_kg", "kg CO2e per kg rTPA",
             "virgin_tpa_gwp_kg_per_kg")
