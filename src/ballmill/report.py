@@ -213,17 +213,18 @@ def mechanics_lines(name: str, ok: pd.DataFrame, seed: pd.Series, out_dir: Path)
         return []
     folder = Path(energy.calibration_dir.iloc[0])
     conds = pd.read_csv(folder / "conditions.csv")
-    nominal = conds[conds.nominal].iloc[0]
-    meta = read_json(folder / "calibration.json")
-    lab_log = pd.read_parquet(folder / "collisions.parquet").query(f"replica == {nominal.replica}")
+    lab_dir = Path(conds[conds.nominal].iloc[0].lab_dem_dir)
+    meta = read_json(lab_dir / "condition.json")
+    lab_log = pd.read_parquet(lab_dir / "collisions.parquet")
     mill_log = pd.read_parquet(Path(seed.dem_dir) / "collisions.parquet")
     thresholds = sorted(ok.impact_threshold_j[ok.yield_rule == "impact_threshold"].unique())
-    pet_fraction_lab = pet_fraction(meta["lab"]["bpr_basis"])
+    pet_fraction_lab = pet_fraction(read_json(folder / "calibration.json")["lab"]["bpr_basis"],
+                                    seed.naoh_feed_kg_per_h / seed.pet_feed_kg_per_h)
     seed_pet_kg = seed.pet_feed_kg_per_h * seed.residence_time_min / 60
     rows = []
     for label, log_, after, until, balls_kg, pet_kg in (
-            ("lab (nominal), BPR 19", lab_log, meta["settle_s"], meta["duration_s"], nominal.ball_mass_kg,
-             nominal.ball_mass_kg / 19 * pet_fraction_lab),
+            ("lab (nominal), BPR 19", lab_log, meta["settle_s"], meta["duration_s"], meta["ball_mass_kg"],
+             meta["ball_mass_kg"] / 19 * pet_fraction_lab),
             ("mill, seed design, BPR 19", mill_log, seed.dem_averaging_from_s, seed.dem_simulated_s, seed.ball_mass_kg,
              seed_pet_kg)):
         rates = {e: dose_rates(log_, after, until, balls_kg, e) for e in (thresholds or [1e-2])}

@@ -32,9 +32,9 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
                           "use yield_model.mode=target_yield")
     fast = replace(s, dem=replace(s.dem, mode="surrogate"))
     check_dem_mode(fast)
-    y = yield_plan(s)
-    ranges = knob_ranges(s.optimiser)
     paper = design_mill(s.scaleup)
+    y = yield_plan(s, paper)
+    ranges = knob_ranges(s.optimiser)
     check_window(s.sim, mill_drum(s.mill, paper))
     check_design(s, paper)
     record = {"bpr": s.scaleup.bpr, "region": s.scaleup.region, "yield_rule": model.rule,
@@ -43,7 +43,7 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
 
     def at(scale, extrapolate: bool = False):
         fit = replace(fast, scaleup=scale, dem=replace(fast.dem, allow_extrapolation=extrapolate))
-        rec, design = evaluate_design(fit, y.line, y.target)
+        rec, design = evaluate_design(fit, y)
         return rec | {"fill_fraction": scale.fill_fraction,
                       "annualised_cost_usd_per_yr": annualised_cost_usd_per_yr(rec, s.plant)}, design
 
@@ -60,8 +60,8 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
         full = replace(s, dem=replace(s.dem, mode="full"), sim=revolution_sim(s.sim, design.speed_rpm))
         folder = out_dir / label
         folder.mkdir(exist_ok=True)
-        dem, rates = mechanics(full, design, folder)
-        rec = dem | mill_record(full, design, dem, rates, y.line)
+        dem, rates = mechanics(full, design, y.threshold_j(s), folder)
+        rec = dem | mill_record(full, design, dem, rates, y)
         return rec | {"annualised_cost_usd_per_yr": annualised_cost_usd_per_yr(rec, s.plant),
                       "sim_duration_s": full.sim.duration_s}
 

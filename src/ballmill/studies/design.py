@@ -1,63 +1,111 @@
-"""study=design: feed -> scale-up -> the mill's mechanics -> power, dose, yield -> costs; under an
-energy rule with a target yield, the residence time's fixed point."""
+"""study=design: feed -> scale-up -> the mill's mechanics -> power, dose, yield -> costs; under a
+dose rule with a target yield, the residence time's fixed point."""
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
+
+import numpy as np
+import pandas as pd
 
 from ..dose import dose_j_per_kg, with_basis
 from ..drum import drum_spec
 from ..economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
-from ..lab_dose import calibrated, calibration_folder, lab_dose_line
+from ..kinetics import curve_dose_for, curve_mean_yield
+from ..lab_dose import calibrated, calibration_folder, check_conditions, lab_dose_line, nominal_condition
+from ..plots import plot_yield_time, save_figure
 from ..scaleup import design_mill
 from ..scenario import Scenario
-from ..yields import DoseLine, bpr_line_yield, line_yield, solve_residence_time
+from ..yields import bpr_line_yield, line_yield, solve_residence_time
 from .mechanics import check_dem_mode, check_numerics, check_window, mechanics, mill_drum
 from .plan import Plan
+from .yield_fit import TIME_SPAN, checked_experiments, fit_folder, fitted_curve, is_fitted, lab_time_curves
 
 log = logging.getLogger(__name__)
 
 
 @dataclass
 class YieldPlan:
-    """The yield model's part of a plan: the BPR line's yield and, under an energy rule, the dose
-    line (None until `ready` when the lab calibration runs first) and the target yield."""
+    """The yield model's part of a plan: the BPR line's yield and, under a dose rule, its yield
+    curve (the calibration's dose line or the fit's chosen model; None until `ready` when the lab
+    DEM or the fit runs first, `source` making it) and the target yield."""
 
     line_yield_percent: float
     extrapolated: bool
-    line: DoseLine | None
+    curve: object | None
     target: float | None
-    deferred: bool
+    source: Callable[[], object] | None = None
+    folder: dict | None = None  # where the curve comes from: {"calibration_dir": ...} (a fit says it itself)
+
+    @property
+    def deferred(self) -> bool:
+        return self.curve is None and self.source is not None
+
+    def target_dose_j_per_kg(self, s: Scenario) -> float:
+        """The mean dose per kg of PET whose yield, averaged over the mill's RTD, is the target."""
+        return curve_dose_for(self.curve, self.target, s.yield_model.rtd)
+
+    def mill_scenario(self, s: Scenario) -> Scenario:
+        """The scenario the mill's DEM runs under: an impact measure's at physical stiffness, so
+        that lab and mill spectra are compared at one stiffness (yield_model.mill_stiffness)."""
+        impacts = self.curve is not None and self.curve.rate == "impact_power_w_per_kg"
+        if not impacts or s.yield_model.mill_stiffness == "sim":
+            return s
+        return replace(s, sim=replace(s.sim, shear_modulus_scale=1.0))
+
+    def threshold_j(self, s: Scenario) -> float:
+        """E* of the mill's impact measures: the curve's where it has one, else yield_model's."""
+        e = getattr(self.curve, "threshold_j", None)
+        return s.yield_model.impact_threshold_j if e is None else e
 
     def record(self, s: Scenario) -> dict:
-        if self.line is None:
+        if self.curve is None:
             return {}
-        out = self.line.as_record() | {"yield_mode": s.yield_model.mode,
-                                       "calibration_dir": str(calibration_folder(s))}
-        return out | ({"target_yield_percent": self.target,
-                       "target_dose_kj_per_kg_pet": self.line.dose_for(self.target) / 1e3}
-                      if self.target is not None else {})
+        rtd = s.yield_model.rtd
+        out = self.curve.as_record() | (self.folder or {}) | {"yield_mode": s.yield_model.mode, "rtd_kind": rtd.kind}
+        out |= {"rtd_tanks": rtd.tanks} if rtd.kind == "tanks_in_series" else {}
+        out |= {"rtd_peclet": rtd.peclet} if rtd.kind == "axial_dispersion" else {}
+        if self.target is None:
+            return out
+        dose = self.target_dose_j_per_kg(s)
+        return out | {"target_yield_percent": self.target, "target_dose_kj_per_kg_pet": dose / 1e3,
+                      "rtd_dose_factor": dose / self.curve.dose_for(self.target)}
 
     def ready(self, s: Scenario) -> dict:
-        """Run the deferred lab calibration; the dose line's record it gives (else nothing new)."""
+        """Run the deferred lab calibration or fit; the curve's record it gives (else nothing new)."""
         if not self.deferred:
             return {}
-        self.line, self.deferred = lab_dose_line(s), False  # simulates the lab first
+        self.curve = self.source()
+        if self.curve.time_free:
+            self.target = None
         return self.record(s)
 
 
-def yield_plan(s: Scenario) -> YieldPlan:
-    """Refuses a BPR outside the line's range; under an energy rule whose lab calibration is
-    missing, the calibration runs first when the plan executes (planning simulates nothing)."""
+def yield_plan(s: Scenario, design) -> YieldPlan:
+    """Refuses a BPR outside the line's range; under a dose rule whose lab calibration or fit is
+    missing, it runs first when the plan executes (planning simulates nothing).  The lab's
+    powder is counted at the mill's NaOH:PET ratio."""
     model = s.yield_model
     line_y, extrapolated = bpr_line_yield(s.scaleup.bpr, model)
-    energy = model.rule != "bpr_line"
-    deferred = energy and not calibrated(s)  # the lab DEM runs in execute
-    line = lab_dose_line(s) if energy and not deferred else None
-    target = model.target_yield_percent or line_y if energy and model.mode == "target_yield" else None
-    return YieldPlan(line_y, extrapolated, line, target, deferred)
+    target = model.target_yield_percent or line_y if model.mode == "target_yield" else None
+    if model.rule == "bpr_line":
+        return YieldPlan(line_y, extrapolated, None, None)
+    if model.rule == "fitted":
+        exps = checked_experiments(s)
+        y = YieldPlan(line_y, extrapolated, None, target, lambda: fitted_curve(s, exps))
+        if is_fitted(s, exps):
+            y.ready(s)
+        return y
+    check_conditions([nominal_condition(s)], s)
+    ratio = design.naoh_feed_kg_per_h / design.pet_feed_kg_per_h
+    y = YieldPlan(line_y, extrapolated, None, target, lambda: lab_dose_line(s, ratio),
+                  {"calibration_dir": str(calibration_folder(s))})
+    if calibrated(s):
+        y.ready(s)
+    return y
 
 
 def check_design(s: Scenario, design) -> None:
@@ -69,13 +117,13 @@ def check_design(s: Scenario, design) -> None:
 
 def plan_design(s: Scenario) -> Plan:
     """Scale-up of the feed to a mill, whose DEM (or its surrogate) gives the power and the
-    collision dose; the yield model's yield (under an energy rule with a target, the residence
-    time that reaches it); costs and margin."""
+    collision dose; the yield model's yield (under a dose rule with a target, the residence
+    time that reaches it, the yield averaged over the mill's RTD); costs and margin."""
     scale, model = s.scaleup, s.yield_model
     design = design_mill(scale)
     check_window(s.sim, mill_drum(s.mill, design))
     check_dem_mode(s, design)
-    y = yield_plan(s)
+    y = yield_plan(s, design)
     check_design(s, design)
     record = {"bpr": scale.bpr, "region": scale.region, "shape_rule": scale.shape_rule, "yield_rule": model.rule,
               "impact_threshold_j": model.impact_threshold_j, "bpr_line_yield_percent": y.line_yield_percent,
@@ -83,54 +131,87 @@ def plan_design(s: Scenario) -> Plan:
 
     def execute(out_dir: Path) -> dict:
         first = y.ready(s)
-        return first | evaluate_design(s, y.line, y.target, out_dir)[0]
+        rec = evaluate_design(s, y, out_dir)[0]
+        if y.curve is not None and not y.curve.time_free:
+            save_figure(plot_yield_time(*time_curves(s, y, rec)), out_dir / "yield_time")
+        return first | rec
 
     return Plan(record, execute)
 
 
-def evaluate_design(s: Scenario, line, target: float | None, out_dir: Path | None = None):
+def evaluate_design(s: Scenario, y: YieldPlan, out_dir: Path | None = None):
     """The scale-up's mill (under a target, at the residence time that reaches it) by `mechanics`:
     its record and its design."""
-    design = design_mill(s.scaleup)
-    if target is None:
-        dem, rates = mechanics(s, design, out_dir)
-        return dem | mill_record(s, design, dem, rates, line), design
+    design, threshold, s = design_mill(s.scaleup), y.threshold_j(s), y.mill_scenario(s)
+    if y.target is None:
+        dem, rates = mechanics(s, design, threshold, out_dir)
+        return dem | mill_record(s, design, dem, rates, y), design
     # the surrogate may pass outside its hull on the way; the final mill is checked (mechanics)
     trial = replace(s, dem=replace(s.dem, allow_extrapolation=True)) if s.dem.mode == "surrogate" else s
-    fp, final = solve_design(trial, design, line, target)
-    dem, rates = mechanics(s, final, out_dir)  # cached: the figures of the final mill
-    return dem | mill_record(s, final, dem, rates, line) | fp.as_record(), final
+    fp = solve_design(trial, design, y)
+    final = design_mill(replace(s.scaleup, residence_time_min=fp.residence_time_min))
+    dem, rates = mechanics(s, final, threshold, out_dir)  # the root's mill (cached when simulated on the way)
+    miss = dose_j_per_kg(rates[y.curve.rate], final.residence_time_min) / y.target_dose_j_per_kg(s) - 1
+    return dem | mill_record(s, final, dem, rates, y) | fp.as_record() | {"fixed_point_dose_miss": miss}, final
 
 
-def mill_record(s: Scenario, design, dem: dict, rates: dict, line) -> dict:
-    """A mill's design, dose rates and doses per kg of PET, yield (the BPR line's, or the dose
-    line's at its dose), costs and the Bond/Rowland power beside the DEM's."""
-    minutes, scale = design.residence_time_min, s.scaleup
+def mill_record(s: Scenario, design, dem: dict, rates: dict, y: YieldPlan) -> dict:
+    """A mill's design, dose rates and doses per kg of PET, yield (the BPR line's, or the yield
+    curve's at its dose averaged over the RTD), costs and the Bond/Rowland power beside the DEM's."""
+    minutes, scale, curve = design.residence_time_min, s.scaleup, y.curve
     doses = {f"{m.removesuffix('_power_w_per_kg')}_dose_kj_per_kg_pet": dose_j_per_kg(rates[m], minutes) / 1e3
              for m in ("collision_power_w_per_kg", "impact_power_w_per_kg")}
-    y = (bpr_line_yield(scale.bpr, s.yield_model)[0] if line is None
-         else line.yield_percent(dose_j_per_kg(rates[line.measure], minutes)))
+    if curve is None:
+        yield_percent = bpr_line_yield(scale.bpr, s.yield_model)[0]
+    elif curve.time_free:
+        yield_percent = curve.yield_at_bpr(scale.bpr)
+    else:
+        yield_percent = curve_mean_yield(curve, dose_j_per_kg(rates[curve.rate], minutes), s.yield_model.rtd)
     return {**design.as_record(), **with_basis(rates, "pet"), **doses,
-            **evaluate(dem["dem_power_w"], y, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h, minutes,
-                       s.economics),
-            "yield_capped": line is None and line_yield(scale.bpr, s.yield_model) > 100.0,
+            **evaluate(dem["dem_power_w"], yield_percent, design.pet_feed_kg_per_h, design.naoh_feed_kg_per_h,
+                       minutes, s.economics),
+            "yield_capped": curve is None and line_yield(scale.bpr, s.yield_model) > 100.0,
             "bond_rowland_power_w": bond_rowland_power_w(design.diameter_m, design.ball_mass_kg, scale.fill_fraction,
                                                          design.fraction_of_critical, 2 * design.ball_radius_m)}
 
 
-def solve_design(s: Scenario, design, line, target: float):
-    """The residence time whose dose reaches the target yield's (a fixed point over the mills
-    the scale-up makes at each residence time, each given to `mechanics`); the final mill."""
-    mills = {}
+def solve_design(s: Scenario, design, y: YieldPlan):
+    """The residence time whose mean dose reaches the target's (a fixed point over the mills the
+    scale-up makes at each residence time, each given to `mechanics`)."""
+    threshold, rate = y.threshold_j(s), y.curve.rate
 
     def rate_at(tau_min: float) -> tuple[float, float]:
-        d = design_mill(replace(s.scaleup, residence_time_min=tau_min))
-        _, rates = mechanics(s, d)
-        mills[tau_min] = d
-        return rates[line.measure], rates[f"{line.measure}_se"]
+        _, rates = mechanics(s, design_mill(replace(s.scaleup, residence_time_min=tau_min)), threshold)
+        return rates[rate], rates[f"{rate}_se"]
 
-    fp = solve_residence_time(design.residence_time_min, line.dose_for(target), rate_at, s.yield_model.tolerance,
-                              s.yield_model.max_iterations)
-    log.info("residence time %.4g min after %d mill evaluations (%s): %s", fp.residence_time_min, fp.iterations,
-             s.dem.mode, ", ".join(f"{t:.4g}" for t in fp.history_min))
-    return fp, mills[fp.residence_time_min]
+    fp = solve_residence_time(design.residence_time_min, y.target_dose_j_per_kg(s), rate_at, s.yield_model.tolerance,
+                              s.yield_model.max_iterations, y.curve.dose_rel_se(y.target))
+    log.info("residence time %.4g min (%s) after %d mill evaluations (%s): %s", fp.residence_time_min, fp.root,
+             fp.iterations, s.dem.mode, ", ".join(f"{t:.4g}" for t in fp.history_min))
+    return fp
+
+
+def time_curves(s: Scenario, y: YieldPlan, rec: dict) -> tuple[pd.DataFrame, pd.DataFrame | None]:
+    """Yield against time in the lab (the fit's conditions, or the calibration's nominal one at
+    this BPR) and in the designed mill at its dose rate (plug flow, and averaged over its RTD
+    against the mean residence time); the experiments as points."""
+    curve, rtd = y.curve, s.yield_model.rtd
+    rate = rec[f"{curve.rate.replace('_per_kg', '_per_kg_pet')}"]
+    until = TIME_SPAN * max(rec["residence_time_min"], s.yield_model.lab_time_min)
+    if s.yield_model.rule == "fitted":
+        rows = pd.read_csv(fit_folder(s, checked_experiments(s)) / "rows.csv")
+        lab, points = lab_time_curves(curve, rows, until), rows
+    else:
+        ratio = rec["naoh_feed_kg_per_h"] / rec["pet_feed_kg_per_h"]
+        lab_rate = curve.lab_rate_w_per_kg_balls * s.scaleup.bpr * (1 + ratio)  # W per kg of PET at this BPR
+        t = np.linspace(0.0, until, 200)
+        lab = pd.DataFrame({"series": f"lab (nominal), BPR {s.scaleup.bpr:g}", "time_min": t,
+                            "yield_percent": curve.yield_percent(lab_rate * t * 60)})
+        points = None
+    t = np.linspace(0.0, until, 200)
+    mill = [pd.DataFrame({"series": "mill, plug flow", "time_min": t,
+                          "yield_percent": curve.yield_percent(rate * t * 60)})]
+    if rtd.kind != "plug":
+        mill.append(pd.DataFrame({"series": f"mill, {rtd.kind} (mean residence time)", "time_min": t,
+                                  "yield_percent": [curve_mean_yield(curve, rate * m * 60, rtd) for m in t]}))
+    return pd.concat([lab, *mill], ignore_index=True), points

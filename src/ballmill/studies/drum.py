@@ -26,7 +26,8 @@ def plan_drum(s: Scenario) -> Plan:
         run, dem_dir = run_drum(s, s.mill, out_dir)
         balls = charge_mass_kg(s.mill, s.materials[s.mill.ball_material].density_kg_per_m3)
         wall = wall_interaction(s.interactions, s.mill)
-        return (drum_record(run, dem_dir) | with_basis(run_dose(run, balls, s), "balls")
+        rates = run_dose(run, balls, s.yield_model.impact_threshold_j, s.yield_model.dose_batches)
+        return (drum_record(run, dem_dir) | with_basis(rates, "balls")
                 | {"experiment": s.study.experiment, "ball_mass_kg": balls, "wall_restitution": wall.restitution,
                    "wall_friction": wall.static_friction, "liner": s.mill.liner.kind,
                    "bond_rowland_power_w": bond_rowland_power_w(

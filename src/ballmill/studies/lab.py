@@ -12,7 +12,8 @@ from ..config import MM400_GEOMETRY, ConfigError
 from ..dem import SimulationError
 from ..dose import dose_rates, with_basis
 from ..lab import conditions, jar_ball_mass_kg, mm400_spec, simulate_mm400, summarise, wall_interaction
-from ..lab_dose import calibration_folder, calibration_key, kinetics_mills, lab_rates, lab_sim
+from ..lab_dose import calibration_conditions, calibration_folder, calibration_key, check_conditions, lab_rates
+from ..scaleup import design_mill
 from ..scenario import Scenario
 from ..yields import MEASURE, fit_dose_line
 from .mechanics import check_machine, check_numerics
@@ -53,11 +54,13 @@ def plan_lab(s: Scenario) -> Plan:
 
 def plan_yield_calibration(s: Scenario) -> Plan:
     """The lab DEM of the kinetics experiments (lab_dose.py): dose rates per condition, the dose
-    lines at the nominal one, and how far each alternative moves the lab dose rate (an energy
-    rule's residence time scales with it)."""
+    lines at the nominal one (the lab's powder at the scale-up's NaOH:PET ratio), and how far
+    each alternative (frequency, ball size and count, jar bore and length) moves the lab dose
+    rate (an energy rule's residence time scales with it)."""
     model = s.yield_model
-    for cfg, conds in kinetics_mills(s):
-        check_numerics(mm400_spec(cfg, conds, s.materials, s.interactions, lab_sim(s)), lab_sim(s), "lab")
+    check_conditions(calibration_conditions(s), s)
+    design = design_mill(s.scaleup)
+    ratio = design.naoh_feed_kg_per_h / design.pet_feed_kg_per_h
 
     def execute(out_dir: Path) -> dict:
         check_machine(s.sim)
@@ -66,7 +69,7 @@ def plan_yield_calibration(s: Scenario) -> Plan:
         out = {"calibration_dir": str(calibration_folder(s)), "impact_threshold_j": model.impact_threshold_j}
         for rule, measure in MEASURE.items():
             rates[f"{measure}_relative"] = rates[measure] / nominal[measure]
-            line = fit_dose_line(measure, float(nominal[measure]), float(nominal[f"{measure}_se"]), model)
+            line = fit_dose_line(measure, float(nominal[measure]), float(nominal[f"{measure}_se"]), model, ratio)
             out |= {f"{rule}_{k}": v for k, v in line.as_record().items()}
         rates.to_csv(out_dir / "lab_dose.csv", index=False)
         return out

@@ -92,10 +92,11 @@ def drum_record(run: DrumRun, dem_dir: Path) -> dict:
     return prefixed(run.summary, "dem") | {"dem_dir": str(dem_dir)}
 
 
-def run_dose(run: DrumRun, mass_kg: float, s: Scenario) -> dict:
-    """Dose rates of a drum run per kg of `mass_kg`, over its averaging window."""
+def run_dose(run: DrumRun, mass_kg: float, threshold_j: float, batches: int) -> dict:
+    """Dose rates of a drum run per kg of `mass_kg` over its averaging window (impacts of at least
+    threshold_j), with the share of the window's dissipation its collision log books."""
     return dose_rates(run.results.collisions, run.summary["averaging_from_s"], run.summary["simulated_s"], mass_kg,
-                      s.yield_model.impact_threshold_j, s.yield_model.dose_batches)
+                      threshold_j, batches, energy=run.results.energy)
 
 
 def mill_drum(mill: DrumConfig, design) -> DrumConfig:
@@ -124,16 +125,18 @@ def check_dem_mode(s: Scenario, design=None) -> None:
         predict_drum(model, mill_drum(s.mill, design), s.materials, s.interactions, s.dem.allow_extrapolation)
 
 
-def mechanics(s: Scenario, design, out_dir: Path | None = None) -> tuple[dict, dict]:
+def mechanics(s: Scenario, design, threshold_j: float, out_dir: Path | None = None) -> tuple[dict, dict]:
     """The design's mill: its record (dem_*: power, its standard error, ...) and its dose rates
-    per kg of PET held up, from the DEM (dem=full) or the surrogate (dem=surrogate, marked)."""
+    per kg of PET held up (impacts of at least threshold_j), from the DEM (dem=full) or the
+    surrogate (dem=surrogate, marked)."""
     drum, pet_kg = mill_drum(s.mill, design), pet_holdup_kg(design)
     if s.dem.mode == "full":
         run, dem_dir = run_drum(s, drum, out_dir)
-        return drum_record(run, dem_dir) | {"dem_source": "full"}, run_dose(run, pet_kg, s)
+        return (drum_record(run, dem_dir) | {"dem_source": "full"},
+                run_dose(run, pet_kg, threshold_j, s.yield_model.dose_batches))
     p = predict_drum(load_surrogate(s.dem.table), drum, s.materials, s.interactions, s.dem.allow_extrapolation)
     record = prefixed(p, "dem") | {"dem_source": "surrogate", "dem_table": s.dem.table}
     unknown = {k: float("nan") for m in MEASURES for k in (m, f"{m}_se")}  # the surrogate predicts collision power
-    return record, unknown | {"impact_threshold_j": s.yield_model.impact_threshold_j,
+    return record, unknown | {"impact_threshold_j": threshold_j,
                               "collision_power_w_per_kg": p["collision_power_w"] / pet_kg,
                               "collision_power_w_per_kg_se": p["collision_power_se_w"] / pet_kg}
