@@ -31,9 +31,11 @@ Phi(t) = L / sqrt(4 pi E t^3) exp(-(L - u t)^2 / (4 E t)) of Nomura 2012, Powder
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -48,7 +50,9 @@ TIME_FREE = ("bpr_line",)  # models that know no milling time
 SINGULAR = 1e-10  # smallest singular value of the weighted Jacobian, relative to its largest, of an identified fit
 TIE = 1e-3  # CV errors closer than this (percentage points: rounding, not evidence) are equal
 AIC_TIE = 2.0  # AICs closer than this are equal (Burnham & Anderson 2002)
-TAIL = 1e-12  # the RTD's probability left out at either end when it is averaged over
+TAIL = 1e-12  # the RTD's probability left out below when it is averaged over
+TAIL_STDS = 60.0  # and above this many standard deviations past its mean
+TIME_SPAN = 1.5  # the yield-against-time curves run to this multiple of the longest time shown
 
 
 def predict(model: str, params: Sequence[float], dose_kj: np.ndarray, bpr: np.ndarray | None = None) -> np.ndarray:
@@ -177,7 +181,17 @@ class Measure:
     @property
     def column(self) -> str:
         """The experiments' dose column of this measure."""
-        return "dose_all_kj_per_kg_pet" if self.threshold_j is None else f"dose_{self.threshold_j:g}j_kj_per_kg_pet"
+        return f"dose_{stem(self.threshold_j)}_kj_per_kg_pet"
+
+
+def stem(threshold_j: float | None) -> str:
+    """A measure's name in column names: all (collisions), or its E* (0.01j)."""
+    return "all" if threshold_j is None else f"{threshold_j:g}j"
+
+
+def lab_rate_column(threshold_j: float | None, se: bool = False) -> str:
+    """The experiments' column of a measure's lab dose rate per kg of balls (or its standard error)."""
+    return f"lab_rate_{stem(threshold_j)}{'_se' if se else ''}_w_per_kg_balls"
 
 
 def measures(thresholds_j: Sequence[float]) -> list[Measure]:
@@ -259,6 +273,9 @@ def candidates_table(candidates: list[Candidate], chosen: Candidate, confidence:
                "chosen": c is chosen, "note": c.note}
         if c.fit is not None:
             row |= {"chi2": c.fit.chi2, "aic": c.fit.aic, "parameters": len(c.fit.params), "identified": c.fit.identified}
+            lo, hi = BOUNDS[c.model]
+            bound = [n for n, v, a, b in zip(PARAMS[c.model], c.fit.params, lo, hi) if np.isclose(v, a) or np.isclose(v, b)]
+            row["note"] = c.note or (f"at its bound: {', '.join(bound)} (its interval is approximate)" if bound else "")
             for name, value, se in zip(PARAMS[c.model], c.fit.params, c.fit.se):
                 row |= {name: value, f"{name}_se": se, f"{name}_lo": value - z * se, f"{name}_hi": value + z * se}
         rows.append(row)
@@ -284,10 +301,10 @@ def mean_yield(yield_of_dose: Callable[[np.ndarray], np.ndarray], mean_dose: flo
     dist = rtd_distribution(rtd)
     if dist is None or mean_dose <= 0:
         return float(yield_of_dose(np.asarray(mean_dose)))
-    lo, hi = dist.ppf(TAIL), dist.ppf(1 - TAIL)
-    points = [k / mean_dose for k in kinks if lo < k / mean_dose < hi]
+    lo, hi = dist.ppf(TAIL), 1.0 + TAIL_STDS * dist.std()  # the upper quantile fails for a narrow inverse Gaussian
+    points = [1.0, *(k / mean_dose for k in kinks if lo < k / mean_dose < hi)]
     value, _ = integrate.quad(lambda th: float(yield_of_dose(np.asarray(mean_dose * th))) * dist.pdf(th), lo, hi,
-                              points=points or None, limit=200)
+                              points=points, limit=200)
     return value
 
 
@@ -323,6 +340,14 @@ class FittedCurve:
     time_min: float  # the experiments' milling time where they share one (the BPR line's time)
     cv_rmse_percent: float
     folder: str
+
+    @classmethod
+    def read(cls, folder: Path) -> FittedCurve:
+        """The chosen model of a fit's folder (fit.json)."""
+        meta = json.loads((Path(folder) / "fit.json").read_text())
+        return cls(meta["model"], meta["rate"], meta["threshold_j"], tuple(meta["params"]),
+                   tuple(map(tuple, meta["cov"])), meta["lab_rate_rel_se"],
+                   math.nan if meta["time_min"] is None else meta["time_min"], meta["cv_rmse_percent"], str(folder))
 
     @property
     def time_free(self) -> bool:
@@ -374,3 +399,33 @@ def curve_dose_for(curve, target_percent: float, rtd: RtdConfig) -> float:
     """The mean dose (J/kg PET) whose RTD-averaged yield is the target."""
     return mean_dose_for(curve.yield_percent, curve.dose_for(target_percent), target_percent, rtd,
                          curve.kinks_j_per_kg())
+
+
+def rtd_table(curve: FittedCurve, target: float, rtd: RtdConfig) -> pd.DataFrame:
+    """What each RTD of the sensitivity lists costs against plug flow at the target: the mean
+    dose it needs / plug flow's (tau scales with it, less the mill-size feedback), and the yield
+    plug flow's dose gives under it."""
+    plug = curve.dose_for(target)
+    cases = [RtdConfig(kind="plug")]
+    cases += [replace(rtd, kind="tanks_in_series", tanks=n) for n in rtd.sensitivity_tanks]
+    cases += [replace(rtd, kind="axial_dispersion", peclet=pe) for pe in rtd.sensitivity_peclets]
+    rows = []
+    for c in cases:
+        rows.append({"rtd": c.kind, "tanks": c.tanks if c.kind == "tanks_in_series" else None,
+                     "peclet": c.peclet if c.kind == "axial_dispersion" else None, "target_yield_percent": target,
+                     "dose_factor": curve_dose_for(curve, target, c) / plug,
+                     "yield_at_plug_dose_percent": curve_mean_yield(curve, plug, c)})
+    return pd.DataFrame(rows)
+
+
+def lab_time_curves(curve: FittedCurve, rows: pd.DataFrame, until_min: float) -> pd.DataFrame:
+    """The chosen model's yield against time for each experimental condition (its dose rate per
+    kg of PET from the lab DEM), long: series, time_min, yield_percent."""
+    t = np.linspace(0.0, until_min, 200)
+    out = []
+    for _, g in rows.groupby("condition", sort=True):
+        r = g.iloc[0]
+        rate = r[lab_rate_column(curve.threshold_j)] * (r.bpr * (r.pet_mass_g + r.naoh_mass_g) / r.pet_mass_g)
+        label = f"lab: {r.frequency_hz:g} Hz, {r.ball_count} x {r.ball_diameter_mm:g} mm, BPR {r.bpr:.3g}"
+        out.append(pd.DataFrame({"series": label, "time_min": t, "yield_percent": curve.yield_percent(rate * t * 60)}))
+    return pd.concat(out, ignore_index=True)

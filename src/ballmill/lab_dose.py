@@ -87,6 +87,10 @@ def check_conditions(conds: list[LabCondition], s: Scenario) -> None:
         raise ConfigError(f"yield_model.lab.settle_s={k.settle_s} leaves nothing of yield_model.lab.duration_s="
                           f"{k.duration_s} to measure: make it shorter than the duration")
     for c in conds:
+        if c.jar_inner_length_m < c.jar_inner_diameter_m:
+            raise ConfigError(f"a lab jar {c.jar_inner_length_m} m long is shorter than its bore {c.jar_inner_diameter_m} "
+                              "m (yield_model.lab.jar_inner_lengths_m, lab.jar_inner_diameter_m): give lengths end to "
+                              "end, at least the bore")
         jar = c.jar(s.lab, k)
         pair = wall_interaction(s.interactions, jar)
         mm400_spec(jar, [Condition(c.frequency_hz, c.ball_diameter_m, pair.restitution, pair.static_friction)],

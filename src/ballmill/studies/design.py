@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..config import ConfigError
 from ..dose import dose_j_per_kg, with_basis
 from ..drum import drum_spec
 from ..economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
@@ -91,6 +92,10 @@ def yield_plan(s: Scenario, design) -> YieldPlan:
     model = s.yield_model
     line_y, extrapolated = bpr_line_yield(s.scaleup.bpr, model)
     target = model.target_yield_percent or line_y if model.mode == "target_yield" else None
+    if model.rule != "bpr_line" and target == 100.0 and model.rtd.kind != "plug":
+        raise ConfigError(f"yield_model.target_yield_percent=100 (the target at scaleup.bpr={s.scaleup.bpr}) cannot be "
+                          f"reached under yield_model.rtd.kind={model.rtd.kind}: a share of the powder leaves early; "
+                          "give a target below 100")
     if model.rule == "bpr_line":
         return YieldPlan(line_y, extrapolated, None, None)
     if model.rule == "fitted":

@@ -12,26 +12,26 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import math
 import time
-from dataclasses import asdict, replace
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..config import RtdConfig
 from ..experiments import Experiments, read_experiments
 from ..files import exclusive, read_json, write_atomic, write_json
 from ..kinetics import (
+    TIME_SPAN,
     FittedCurve,
     candidates_table,
     choose,
-    curve_dose_for,
-    curve_mean_yield,
     fit_candidates,
+    lab_rate_column,
+    lab_time_curves,
     measures,
     predict,
+    rtd_table,
 )
 from ..lab_dose import LabCondition, check_conditions, condition_key, condition_rates, simulate_conditions
 from ..plots import plot_parity, plot_residuals, plot_yield_time, save_figure
@@ -41,7 +41,6 @@ from .mechanics import check_machine
 from .plan import Plan
 
 log = logging.getLogger(__name__)
-TIME_SPAN = 1.5  # the yield-against-time figures run to this multiple of the longest experiment
 
 
 def lab_conditions(exps: Experiments) -> list[LabCondition]:
@@ -80,9 +79,8 @@ def doses(s: Scenario, exps: Experiments, folders: list[Path]) -> pd.DataFrame:
         rate = np.array([r[m.rate] for r in rates])[rows.dem_condition]
         se = np.array([r[f"{m.rate}_se"] for r in rates])[rows.dem_condition]
         balls_kg = np.array([r["ball_mass_kg"] for r in rates])[rows.dem_condition]
-        stem = m.column.removesuffix("_kj_per_kg_pet").removeprefix("dose_")
-        per_pet[f"lab_rate_{stem}_w_per_kg_balls"] = rate
-        per_pet[f"lab_rate_{stem}_se_w_per_kg_balls"] = se
+        per_pet[lab_rate_column(m.threshold_j)] = rate
+        per_pet[lab_rate_column(m.threshold_j, se=True)] = se
         per_pet[m.column] = rate * balls_kg / (rows.pet_mass_g.to_numpy() / 1e3) * rows.time_min.to_numpy() * 60 / 1e3
         per_pet["collision_log_share"] = np.array([r["collision_log_share"] for r in rates])[rows.dem_condition]
         per_pet["largest_impact_j"] = np.array([r["largest_impact_j"] for r in rates])[rows.dem_condition]
@@ -109,9 +107,8 @@ def run_fit(s: Scenario, exps: Experiments) -> Path:
                 cv_predicted_percent=c.cv_predicted) for c in candidates if c.fit is not None], ignore_index=True)
             for name, frame in (("rows", rows), ("candidates", table), ("predictions", predictions)):
                 write_atomic(folder / f"{name}.csv", lambda tmp, f=frame: f.to_csv(tmp, index=False))
-            stem = "all" if chosen.measure is None or chosen.measure.threshold_j is None else (
-                f"{chosen.measure.threshold_j:g}j")
-            rel = (rows[f"lab_rate_{stem}_se_w_per_kg_balls"] / rows[f"lab_rate_{stem}_w_per_kg_balls"]).drop_duplicates()
+            threshold = None if chosen.measure is None else chosen.measure.threshold_j
+            rel = (rows[lab_rate_column(threshold, se=True)] / rows[lab_rate_column(threshold)]).drop_duplicates()
             write_json(folder / "fit.json", {
                 "key": folder.name, "experiments": str(exps.path), "experiments_digest": exps.digest,
                 "model": chosen.model, "rate": None if chosen.measure is None else chosen.measure.rate,
@@ -124,16 +121,9 @@ def run_fit(s: Scenario, exps: Experiments) -> Path:
     return folder
 
 
-def load_curve(folder: Path) -> FittedCurve:
-    meta = read_json(folder / "fit.json")
-    return FittedCurve(meta["model"], meta["rate"], meta["threshold_j"], tuple(meta["params"]),
-                       tuple(map(tuple, meta["cov"])), meta["lab_rate_rel_se"],
-                       math.nan if meta["time_min"] is None else meta["time_min"], meta["cv_rmse_percent"], str(folder))
-
-
 def fitted_curve(s: Scenario, exps: Experiments) -> FittedCurve:
     """The chosen model of the table's fit (fitted first when missing)."""
-    return load_curve(run_fit(s, exps))
+    return FittedCurve.read(run_fit(s, exps))
 
 
 def is_fitted(s: Scenario, exps: Experiments) -> bool:
@@ -146,37 +136,6 @@ def target_percent(s: Scenario) -> float:
     return s.yield_model.target_yield_percent or bpr_line_yield(s.scaleup.bpr, s.yield_model)[0]
 
 
-def rtd_table(curve: FittedCurve, target: float, rtd: RtdConfig) -> pd.DataFrame:
-    """What each RTD of the sensitivity lists costs against plug flow at the target: the mean
-    dose it needs / plug flow's (tau scales with it, less the mill-size feedback), and the yield
-    plug flow's dose gives under it."""
-    plug = curve.dose_for(target)
-    cases = [RtdConfig(kind="plug")]
-    cases += [replace(rtd, kind="tanks_in_series", tanks=n) for n in rtd.sensitivity_tanks]
-    cases += [replace(rtd, kind="axial_dispersion", peclet=pe) for pe in rtd.sensitivity_peclets]
-    rows = []
-    for c in cases:
-        rows.append({"rtd": c.kind, "tanks": c.tanks if c.kind == "tanks_in_series" else None,
-                     "peclet": c.peclet if c.kind == "axial_dispersion" else None, "target_yield_percent": target,
-                     "dose_factor": curve_dose_for(curve, target, c) / plug,
-                     "yield_at_plug_dose_percent": curve_mean_yield(curve, plug, c)})
-    return pd.DataFrame(rows)
-
-
-def lab_time_curves(curve: FittedCurve, rows: pd.DataFrame, until_min: float) -> pd.DataFrame:
-    """The chosen model's yield against time for each experimental condition (its dose rate per
-    kg of PET from the lab DEM), long: series, time_min, yield_percent."""
-    stem = "all" if curve.threshold_j is None else f"{curve.threshold_j:g}j"
-    t = np.linspace(0.0, until_min, 200)
-    out = []
-    for _, g in rows.groupby("condition", sort=True):
-        r = g.iloc[0]
-        rate = r[f"lab_rate_{stem}_w_per_kg_balls"] * (r.bpr * (r.pet_mass_g + r.naoh_mass_g) / r.pet_mass_g)
-        label = f"lab: {r.frequency_hz:g} Hz, {r.ball_count} x {r.ball_diameter_mm:g} mm, BPR {r.bpr:.3g}"
-        out.append(pd.DataFrame({"series": label, "time_min": t, "yield_percent": curve.yield_percent(rate * t * 60)}))
-    return pd.concat(out, ignore_index=True)
-
-
 def plan_yield_fit(s: Scenario) -> Plan:
     """The experiments table checked, the lab conditions' numerics checked; the fit (run first when
     missing), its tables and figures: parity, residuals per condition, yield against time, and
@@ -187,7 +146,7 @@ def plan_yield_fit(s: Scenario) -> Plan:
     def execute(out_dir: Path) -> dict:
         check_machine(s.sim)
         folder = run_fit(s, exps)
-        curve = load_curve(folder)
+        curve = FittedCurve.read(folder)
         rows, predictions = (pd.read_csv(folder / f"{n}.csv") for n in ("rows", "predictions"))
         candidates = pd.read_csv(folder / "candidates.csv")
         chosen = candidates[candidates.chosen].iloc[0]
