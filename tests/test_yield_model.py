@@ -6,15 +6,19 @@ import json
 import logging
 import math
 import re
+from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from helpers import run
 from scipy.optimize import brentq
 from test_contact_physics import STEEL, two_spheres
 
-from ballmill.config import ConfigError, YieldModelConfig
+from ballmill.columns import undescribed
+from ballmill.config import ConfigError, RtdConfig, YieldModelConfig
 from ballmill.dose import dose_j_per_kg, dose_rates
+from ballmill.kinetics import FittedCurve, curve_mean_yield
 from ballmill.run import run as run_scenario
 from ballmill.scenario import compose, load
 from ballmill.studies import plan
@@ -229,3 +233,45 @@ def test_energy_rules_refuse_a_threshold_above_every_lab_impact(calibrated):
                                           r"calibration \(largest .* J\): give at most that"):
         plan(load(compose("config", ["yield_model=impact_threshold", "yield_model.impact_threshold_j=100",
                                      f"cache_dir={cache}", *LAB])))
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory):
+    """study=yield_fit on the shipped table, its one lab condition simulated briefly."""
+    cache, out = tmp_path_factory.mktemp("fit_cache"), tmp_path_factory.mktemp("fit_run")
+    return cache, run_scenario(compose("config", ["study=yield_fit", f"cache_dir={cache}", *LAB]), out), out
+
+
+def test_the_fit_of_the_shipped_table_restates_the_seeds_line_and_draws_its_figures(fitted):
+    """Whatever the lab's dose rate, the dose-linear model on all collisions restates the line (its
+    five rows are the line at one lab condition and one time), and it is chosen, though the
+    other dose measures and the BPR line fit it as well."""
+    _, record, out = fitted
+    assert (record["fit_model"], record["fit_threshold_j"]) == ("dose_linear", None)
+    assert record["experiments_rows"] == 5 and record["lab_conditions"] == 1
+    assert record["fit_candidates_within_one_se"] >= 3
+    rows = pd.read_csv(Path(record["fit_dir"]) / "rows.csv")
+    fitted_line = record["fit_a_percent"] + record["fit_b_percent_per_kj_per_kg"] * rows.dose_all_kj_per_kg_pet
+    assert fitted_line.to_numpy() == pytest.approx((6.38 * rows.bpr - 46.35).to_numpy(), abs=0.01)
+    assert rows.bpr.to_numpy() == pytest.approx([10, 13, 16, 19, 22], abs=1e-4)
+    rtd = pd.read_csv(out / "yield_fit_rtd.csv")
+    tanks = rtd[rtd.rtd == "tanks_in_series"].sort_values("tanks").dose_factor.to_numpy()
+    assert rtd[rtd.rtd == "plug"].dose_factor.iloc[0] == 1.0 and all(np.diff(tanks) < 0) and tanks[-1] > 1.0
+    for figure in ("yield_fit_parity", "yield_fit_residuals", "yield_fit_time"):
+        assert (out / f"{figure}.png").exists()
+    assert undescribed("record", record) == []
+
+
+def test_a_fitted_design_averages_its_yield_over_the_rtd_and_reuses_the_fit(fitted, tmp_path, caplog):
+    cache = fitted[0]
+    overrides = ["yield_model=fitted", "yield_model.mode=fixed_time", "yield_model.rtd.kind=tanks_in_series",
+                 f"cache_dir={cache}", *LAB, *DRUM]
+    with caplog.at_level(logging.INFO, logger="ballmill.studies.yield_fit"):
+        record = run_scenario(compose("config", overrides), tmp_path)
+    assert "fitting it" not in caplog.text  # the study's fit, found by the table's hash
+    curve = FittedCurve.read(record["fit_dir"])
+    dose = record["collision_dose_kj_per_kg_pet"] * 1e3
+    rtd = RtdConfig(kind="tanks_in_series", tanks=3.0)
+    assert record["yield_percent"] == pytest.approx(curve_mean_yield(curve, dose, rtd), rel=1e-9)
+    assert record["rtd_kind"] == "tanks_in_series" and record["residence_time_min"] == 20.0
+    assert (tmp_path / "yield_time.png").exists() and undescribed("record", record) == []
