@@ -36,6 +36,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 import pandas as pd
@@ -325,6 +326,26 @@ def mean_dose_for(yield_of_dose, plug_dose: float, target_percent: float, rtd: R
                            xtol=1e-9 * hi, rtol=1e-12)
 
 
+class YieldCurve(Protocol):
+    """What a design needs of a yield model (FittedCurve; yields.DoseLine, the calibration's line):
+    yield against the dose per kg of PET (J/kg) on one dose rate of dose.py (above threshold_j
+    for the impact measure), its inverse, where it bends, the target dose's relative error."""
+
+    rate: str
+    threshold_j: float | None
+    time_free: bool
+
+    def yield_percent(self, dose_j_per_kg): ...
+
+    def dose_for(self, target_percent: float) -> float: ...
+
+    def kinks_j_per_kg(self) -> list[float]: ...
+
+    def dose_rel_se(self, target_percent: float) -> float: ...
+
+    def as_record(self) -> dict: ...
+
+
 @dataclass(frozen=True)
 class FittedCurve:
     """A fit's chosen model as a design uses it: yield against the dose per kg of PET (J/kg) on
@@ -390,12 +411,12 @@ class FittedCurve:
                 **{f"fit_{n}_se": float(e) for n, e in zip(PARAMS[self.model], se)}}
 
 
-def curve_mean_yield(curve, mean_dose_j_per_kg: float, rtd: RtdConfig) -> float:
-    """A yield curve's (FittedCurve, yields.DoseLine) yield averaged over the RTD at a mean dose."""
+def curve_mean_yield(curve: YieldCurve, mean_dose_j_per_kg: float, rtd: RtdConfig) -> float:
+    """A yield curve's yield averaged over the RTD at a mean dose."""
     return mean_yield(curve.yield_percent, mean_dose_j_per_kg, rtd, curve.kinks_j_per_kg())
 
 
-def curve_dose_for(curve, target_percent: float, rtd: RtdConfig) -> float:
+def curve_dose_for(curve: YieldCurve, target_percent: float, rtd: RtdConfig) -> float:
     """The mean dose (J/kg PET) whose RTD-averaged yield is the target."""
     return mean_dose_for(curve.yield_percent, curve.dose_for(target_percent), target_percent, rtd,
                          curve.kinks_j_per_kg())

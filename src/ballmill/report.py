@@ -254,9 +254,9 @@ def yield_calibration_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_
     for rec in ok.itertuples():
         table = pd.read_csv(Path(rec.job_dir) / "lab_dose.csv")
         write_table(table, out_dir / f"{name}_lab_dose")
-        cols = ["balls", "frequency_hz", "ball_diameter_m", "nominal", "collision_power_w_per_kg",
-                "collision_power_w_per_kg_se", "collision_power_w_per_kg_relative", "impact_power_w_per_kg",
-                "impact_power_w_per_kg_relative", "largest_impact_j"]
+        cols = ["balls", "frequency_hz", "ball_diameter_m", "jar_inner_diameter_m", "jar_inner_length_m", "nominal",
+                "collision_power_w_per_kg", "collision_power_w_per_kg_se", "collision_power_w_per_kg_relative",
+                "impact_power_w_per_kg", "impact_power_w_per_kg_relative", "largest_impact_j", "collision_log_share"]
         text = (f"E* = {rec.impact_threshold_j} J; specific_energy: Y = {rec.specific_energy_yield_a_percent:.4g} + "
                 f"{rec.specific_energy_yield_b_percent_per_kj_per_kg:.4g} D (% per kJ/kg PET); impact_threshold: "
                 f"Y = {rec.impact_threshold_yield_a_percent:.4g} + "

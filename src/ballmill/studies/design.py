@@ -15,7 +15,7 @@ from ..config import ConfigError
 from ..dose import dose_j_per_kg, with_basis
 from ..drum import drum_spec
 from ..economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
-from ..kinetics import curve_dose_for, curve_mean_yield
+from ..kinetics import YieldCurve, curve_dose_for, curve_mean_yield
 from ..lab_dose import calibrated, calibration_folder, check_conditions, lab_dose_line, nominal_condition
 from ..plots import plot_yield_time, save_figure
 from ..scaleup import design_mill
@@ -36,9 +36,9 @@ class YieldPlan:
 
     line_yield_percent: float
     extrapolated: bool
-    curve: object | None
+    curve: YieldCurve | None
     target: float | None
-    source: Callable[[], object] | None = None
+    source: Callable[[], YieldCurve] | None = None
     folder: dict | None = None  # where the curve comes from: {"calibration_dir": ...} (a fit says it itself)
 
     @property
