@@ -36,7 +36,7 @@ MODEL = YieldModelConfig()
 STOICHIOMETRIC = stoichiometric_naoh_per_pet()  # kg NaOH per kg PET
 LAB = ["yield_model.lab.duration_s=0.8", "yield_model.lab.settle_s=0.2", "yield_model.lab.frequencies_hz=[30]",
        "yield_model.lab.ball_diameters_m=[0.0206]", "yield_model.lab.jar_inner_diameters_m=[0.028]",
-       "yield_model.lab.jar_inner_lengths_m=[0.05]"]
+       "yield_model.lab.jar_inner_lengths_m=[0.05]", "yield_model.lab.starts=2"]
 # A small feed (100 kg/h: tens to hundreds of balls) at sim=test, whose soft balls overlap more in
 # the larger mills of the iteration: a looser guard rail; half a second of rotation is noisy: 5 %
 DRUM = ["sim=test", "sim.settle_s=0.3", "sim.duration_s=0.5", "sim.steady_after_s=0.1", "sim.threads=1",
@@ -197,8 +197,10 @@ def test_energy_rule_design_converges_and_records_its_fixed_point(calibrated, tm
         assert min(history) < record["residence_time_min"] < max(history)
     else:
         assert any(t == pytest.approx(record["residence_time_min"], rel=1e-5) for t in history)
-    miss = record["fixed_point_dose_miss"]  # a short run's rate is rough: the bracket may close off the target
-    assert abs(miss) < 0.15
+    # the root's mill is simulated afresh: its dose misses the target by its own run's noise (a short
+    # run's rate is rough, 10-20 % here), within three of its standard errors
+    miss = record["fixed_point_dose_miss"]
+    assert abs(miss) < 3 * record["collision_power_w_per_kg_pet_se"] / record["collision_power_w_per_kg_pet"]
     assert record["collision_dose_kj_per_kg_pet"] == pytest.approx(record["target_dose_kj_per_kg_pet"] * (1 + miss))
     assert record["yield_percent"] == pytest.approx(record["yield_a_percent"] + record["yield_b_percent_per_kj_per_kg"]
                                                     * record["collision_dose_kj_per_kg_pet"])

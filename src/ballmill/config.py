@@ -320,6 +320,8 @@ class KineticsLabConfig:
         "doc": "the BPR's powder: PET + NaOH (at the mill's NaOH:PET ratio), or PET alone"})
     duration_s: float = rng(3.0, 0.0, None, lo_open=True, doc="simulated milling of every lab condition (s)")
     settle_s: float = rng(0.5, 0.0, None, doc="start-up left out of the dose rate (s)")
+    starts: int = rng(4, 1, None, doc=("starts of every lab condition, each with its own small random initial speed, "
+                                       "pooled (a ball may slide in place from one start and bounce from another)"))
     frequencies_hz: list[float] = field(default_factory=lambda: [25.0, 30.0], metadata={
         "doc": "frequencies of the sensitivity run (the calibration's alternatives)"})
     ball_diameters_m: list[float] = field(default_factory=lambda: [0.0176, 0.0206], metadata={

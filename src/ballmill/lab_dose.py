@@ -19,10 +19,11 @@ import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from .config import MM400_GEOMETRY, ConfigError, KineticsLabConfig, MM400Config, SimConfig
-from .dose import dose_rates
+from .dose import MEASURES, dose_rates
 from .files import exclusive, read_json, write_atomic, write_json
 from .lab import Condition, jar_ball_mass_kg, jar_inner_length_m, jar_volume_ml, run_mm400, wall_interaction
 from .scenario import Scenario
@@ -66,7 +67,7 @@ def condition_key(c: LabCondition, s: Scenario) -> str:
     pairs it uses, the kinetics' durations and the engine's precision."""
     k = s.yield_model.lab
     payload = {"condition": asdict(c), "motion": {f: getattr(s.lab, f) for f in MOTION},
-               "durations": [k.duration_s, k.settle_s], "precision": s.sim.precision,
+               "durations": [k.duration_s, k.settle_s], "starts": k.starts, "precision": s.sim.precision,
                "materials": {m: asdict(s.materials[m]) for m in sorted({c.jar_material, c.ball_material})},
                "interactions": {key: asdict(v) for key, v in s.interactions.items()
                                 if set(key.split("-")) <= {c.jar_material, c.ball_material}}}
@@ -98,50 +99,54 @@ def check_conditions(conds: list[LabCondition], s: Scenario) -> None:
 
 
 def simulate_conditions(conds: list[LabCondition], s: Scenario) -> list[Path]:
-    """The lab run of each condition (those missing simulated first, a jar and its balls as one
-    batch of replicas, one frequency and ball size each); their cache folders."""
+    """The lab run of each condition (those missing simulated first); their cache folders."""
     folders = [condition_folder(c, s) for c in conds]
     with exclusive(s.cache_dir / "lab_dem" / ".lock"):  # another job computing them: wait, then reuse
-        missing = {c: f for c, f in zip(conds, folders) if read_json(f / "condition.json") is None}
+        missing = [(c, f) for c, f in zip(conds, folders) if read_json(f / "condition.json") is None]
         if missing:
             log.info("lab DEM of %d kinetics conditions not yet in %s: running them", len(missing),
                      s.cache_dir / "lab_dem")
             started = time.perf_counter()
-            batches: dict[tuple, list[LabCondition]] = {}
-            for c in missing:
-                batches.setdefault((c.jar_inner_diameter_m, c.jar_inner_length_m, c.jar_material, c.ball_material,
-                                    c.balls), []).append(c)
-            for batch in batches.values():
-                simulate_batch(batch, [missing[c] for c in batch], s)
+            for c, folder in missing:
+                simulate_condition(c, folder, s)
             log.info("lab DEM done in %.0f s", time.perf_counter() - started)
     return folders
 
 
-def simulate_batch(batch: list[LabCondition], folders: list[Path], s: Scenario) -> None:
-    """Conditions sharing a jar and its balls as replicas of one lab run; each replica's tables
-    into its folder (condition.json, the mark of a finished run, last)."""
+def simulate_condition(c: LabCondition, folder: Path, s: Scenario) -> None:
+    """One condition from yield_model.lab.starts starts (replicas of one run, each drawing its own
+    small initial velocity; alone in its run, so that its time step and its starts are the
+    condition's own); its tables into its folder (condition.json, the mark of a finished run, last)."""
     k = s.yield_model.lab
-    jar = batch[0].jar(s.lab, k)
+    jar = c.jar(s.lab, k)
     pair = wall_interaction(s.interactions, jar)
-    runs = [Condition(c.frequency_hz, c.ball_diameter_m, pair.restitution, pair.static_friction) for c in batch]
+    runs = [Condition(c.frequency_hz, c.ball_diameter_m, pair.restitution, pair.static_friction, start)
+            for start in range(k.starts)]
     res = run_mm400(jar, runs, s.materials, s.interactions, lab_sim(s.sim))
-    for i, (c, folder) in enumerate(zip(batch, folders)):
-        for name, frame in (("collisions", res.collisions), ("energy", res.energy)):
-            own = frame[frame.replica == i].assign(replica=0)
-            write_atomic(folder / f"{name}.parquet", lambda tmp, own=own: own.to_parquet(tmp, index=False))
-        write_json(folder / "condition.json", {"key": condition_key(c, s), "condition": asdict(c),
-                                               "settle_s": k.settle_s, "duration_s": k.duration_s,
-                                               "ball_mass_kg": jar_ball_mass_kg(jar, c.ball_diameter_m, s.materials),
-                                               "sim": asdict(lab_sim(s.sim))})
+    for name, frame in (("collisions", res.collisions), ("energy", res.energy)):
+        write_atomic(folder / f"{name}.parquet", lambda tmp, f=frame: f.to_parquet(tmp, index=False))
+    write_json(folder / "condition.json", {"key": condition_key(c, s), "condition": asdict(c), "starts": k.starts,
+                                           "settle_s": k.settle_s, "duration_s": k.duration_s,
+                                           "ball_mass_kg": jar_ball_mass_kg(jar, c.ball_diameter_m, s.materials),
+                                           "sim": asdict(lab_sim(s.sim))})
 
 
 def condition_rates(folder: Path, threshold_j: float, batches: int) -> dict:
-    """Dose rates per kg of balls of one cached lab run, above `threshold_j` for the impact
-    measures, with the share of the window's dissipation its collision log books."""
+    """Dose rates per kg of balls of one cached lab condition, its starts pooled (their mean), above
+    `threshold_j` for the impact measures, with the share of the window's dissipation the log
+    books.  A rate's standard error is its batch means', or the spread of its starts' rates where
+    larger (a ball may slide in place from one start and bounce end to end from another)."""
     meta = read_json(folder / "condition.json")
-    collisions = pd.read_parquet(folder / "collisions.parquet")
-    return dose_rates(collisions, meta["settle_s"], meta["duration_s"], meta["ball_mass_kg"], threshold_j, batches,
-                      energy=pd.read_parquet(folder / "energy.parquet")) | {"ball_mass_kg": meta["ball_mass_kg"]}
+    collisions, energy = (pd.read_parquet(folder / f"{n}.parquet") for n in ("collisions", "energy"))
+    window, mass, starts = (meta["settle_s"], meta["duration_s"]), meta["ball_mass_kg"], meta["starts"]
+    pooled = dose_rates(collisions, *window, mass * starts, threshold_j, batches, energy=energy)
+    if starts > 1:
+        each = [dose_rates(collisions[collisions.replica == r], *window, mass, threshold_j, batches)
+                for r in range(starts)]
+        for m in MEASURES:
+            spread = float(np.std([e[m] for e in each], ddof=1) / np.sqrt(starts))
+            pooled[f"{m}_se"] = max(pooled[f"{m}_se"], spread)
+    return pooled | {"ball_mass_kg": mass, "starts": starts}
 
 
 # The energy rules' calibration: the nominal condition and its alternatives.
