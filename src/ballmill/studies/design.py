@@ -40,14 +40,11 @@ class YieldPlan:
     target: float | None
     source: Callable[[], YieldCurve] | None = None
     folder: dict | None = None  # where the curve comes from: {"calibration_dir": ...} (a fit says it itself)
+    target_dose_j_per_kg: float | None = None  # the mean dose whose yield, averaged over the RTD, is the target
 
     @property
     def deferred(self) -> bool:
         return self.curve is None and self.source is not None
-
-    def target_dose_j_per_kg(self, s: Scenario) -> float:
-        """The mean dose per kg of PET whose yield, averaged over the mill's RTD, is the target."""
-        return curve_dose_for(self.curve, self.target, s.yield_model.rtd)
 
     def mill_scenario(self, s: Scenario) -> Scenario:
         """The scenario the mill's DEM runs under: an impact measure's at physical stiffness, so
@@ -71,17 +68,20 @@ class YieldPlan:
         out |= {"rtd_peclet": rtd.peclet} if rtd.kind == "axial_dispersion" else {}
         if self.target is None:
             return out
-        dose = self.target_dose_j_per_kg(s)
+        dose = self.target_dose_j_per_kg
         return out | {"target_yield_percent": self.target, "target_dose_kj_per_kg_pet": dose / 1e3,
                       "rtd_dose_factor": dose / self.curve.dose_for(self.target)}
 
     def ready(self, s: Scenario) -> dict:
-        """Run the deferred lab calibration or fit; the curve's record it gives (else nothing new)."""
+        """Run the deferred lab calibration or fit, and solve the target's mean dose; the curve's
+        record it gives (else nothing new)."""
         if not self.deferred:
             return {}
         self.curve = self.source()
         if self.curve.time_free:
             self.target = None
+        if self.target is not None:
+            self.target_dose_j_per_kg = curve_dose_for(self.curve, self.target, s.yield_model.rtd)
         return self.record(s)
 
 
@@ -156,7 +156,7 @@ def evaluate_design(s: Scenario, y: YieldPlan, out_dir: Path | None = None):
     fp = solve_design(trial, design, y)
     final = design_mill(replace(s.scaleup, residence_time_min=fp.residence_time_min))
     dem, rates = mechanics(s, final, threshold, out_dir)  # the root's mill (cached when simulated on the way)
-    miss = dose_j_per_kg(rates[y.curve.rate], final.residence_time_min) / y.target_dose_j_per_kg(s) - 1
+    miss = dose_j_per_kg(rates[y.curve.rate], final.residence_time_min) / y.target_dose_j_per_kg - 1
     return dem | mill_record(s, final, dem, rates, y) | fp.as_record() | {"fixed_point_dose_miss": miss}, final
 
 
@@ -189,7 +189,7 @@ def solve_design(s: Scenario, design, y: YieldPlan):
         _, rates = mechanics(s, design_mill(replace(s.scaleup, residence_time_min=tau_min)), threshold)
         return rates[rate], rates[f"{rate}_se"]
 
-    fp = solve_residence_time(design.residence_time_min, y.target_dose_j_per_kg(s), rate_at, s.yield_model.tolerance,
+    fp = solve_residence_time(design.residence_time_min, y.target_dose_j_per_kg, rate_at, s.yield_model.tolerance,
                               s.yield_model.max_iterations, y.curve.dose_rel_se(y.target))
     log.info("residence time %.4g min (%s) after %d mill evaluations (%s): %s", fp.residence_time_min, fp.root,
              fp.iterations, s.dem.mode, ", ".join(f"{t:.4g}" for t in fp.history_min))
