@@ -285,7 +285,8 @@ def yield_fit_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Pat
         curve = FittedCurve.read(folder)
         chosen = candidates[candidates.chosen].iloc[0]
         write_table(candidates, out_dir / f"{name}_candidates")
-        shown = candidates.assign(parameters=[interval(c, PARAMS[c.model]) for _, c in candidates.iterrows()])
+        shown = candidates.assign(parameters=[interval(c, PARAMS[c.model]) for _, c in candidates.iterrows()],
+                                  note=candidates.note.fillna(""))
         shown = shown[["candidate", "cv_rmse_percent", "cv_rmse_se_percent", "chi2", "aic", "within_one_se", "chosen",
                        "parameters", "note"]]
         mine = predictions[predictions.candidate == chosen.candidate].assign(
