@@ -44,7 +44,7 @@ LAB = ["lab.duration_s=0.3", "lab.settle_s=0.1", "lab.frequencies_hz=[25.0]", "l
 RUN = ["sim=test", "sim.threads=1", "sim.shear_modulus_scale=0.01", "sim.settle_s=0.1", "sim.steady_after_s=0.1",
        "sim.duration_s=0.3", "plant.monte_carlo_draws=10", "optimiser.trials=30", "yield_model.lab.frequencies_hz=[30.0]",
        "yield_model.lab.ball_diameters_m=[0.0206]", "yield_model.lab.jar_inner_diameters_m=[0.028]",
-       "yield_model.lab.jar_inner_lengths_m=[0.05]", *LAB]
+       "yield_model.lab.jar_inner_lengths_m=[0.05]", "yield_model.lab.starts=2", *LAB]
 SWEEP_JOBS = {"fig3b": ["scaleup.bpr=19,22.9"], "fig4": ["scaleup.region=DC,DE"], "plant": ["scaleup.bpr=19"],
               "plant_states": ["scaleup.region=DC"], "cheapest_mill_states": ["scaleup.region=DC", "optimiser.confirm=false"],
               "scaleup_rule": ["scaleup.bpr=19", "yield_model=bpr_line,specific_energy"],
