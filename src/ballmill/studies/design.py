@@ -78,6 +78,9 @@ class YieldPlan:
         if not self.deferred:
             return {}
         self.curve = self.source()
+        if s.dem.mode == "surrogate" and self.curve.rate == "impact_power_w_per_kg":
+            raise ConfigError(f"dem=surrogate: the yield's dose measure is impacts of at least {self.threshold_j(s)} J, "
+                              "whose spectrum the surrogate does not predict; use dem=full")
         if self.curve.time_free:
             self.target = None
         if self.target is not None:
