@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 import trimesh
 from omegaconf import OmegaConf
+from test_kinetics import table_with
 
 from ballmill.cli import RUN_GROUPS, main
 from ballmill.config import COMMANDS, ConfigError, SimConfig, to_object, walk
@@ -45,6 +46,11 @@ def inputs(tmp_path_factory):
                        "empty_manifest": "file,frequency_hz,ball_diameter_mm,balls\n"}.items():
         (d / name).mkdir()
         (d / name / "videos.csv").write_text(rows)
+    (d / "experiments").mkdir()
+    for name, change in {"negative_mass": {"pet_mass_g": "-1.0"}, "yield_above_100": {"yield_percent": "104"},
+                         "one_condition": {"time_min": "40"}, "three_balls": {"ball_count": "3"}}.items():
+        (d / "experiments" / f"{name}.csv").write_text(table_with(change))
+    (d / "experiments" / "missing_columns.csv").write_text("experiment,yield_percent\nx,50\n")
     (d / "no_manifest").mkdir()
     (d / "empty_sweep").mkdir()
     job = d / "corrupt_sweep" / "scaleup.bpr=19"
@@ -96,6 +102,34 @@ RUN = [
     (["yield_model.rule=dose"], r"yield_model.rule='dose' is not one of \['bpr_line', 'specific_energy'"),
     (["study=yield_calibration", "yield_model.lab.ball_diameters_m=[]"],
      r"yield_model.lab.ball_diameters_m=\[\] is empty: give at least one value"),
+    (["study=yield_calibration", "yield_model.lab.jar_inner_diameters_m=[]"],
+     r"yield_model.lab.jar_inner_diameters_m=\[\] is empty: give at least one value"),
+    (["study=yield_calibration", "yield_model.lab.jar_inner_lengths_m=[0.02]"],
+     r"a lab jar 0.02 m long is shorter than its bore 0.03 m \(yield_model.lab.jar_inner_lengths_m"),
+    (["study=yield_fit", "yield_model.experiments=/no/such.csv"],
+     r"yield_model.experiments=/no/such.csv: no such data/ table or file"),
+    (["study=yield_fit", "yield_model.experiments={inputs}/experiments/missing_columns.csv"],
+     r"yield_model.experiments=.*missing_columns.csv: missing columns \['mill', 'jar_inner_diameter_mm'"),
+    (["study=yield_fit", "yield_model.experiments={inputs}/experiments/negative_mass.csv"],
+     r"negative_mass.csv: row 2 \(b\): pet_mass_g=-1.0 is outside the allowed range \(0.0, inf\)"),
+    (["study=yield_fit", "yield_model.experiments={inputs}/experiments/yield_above_100.csv"],
+     r"yield_above_100.csv: row 2 \(b\): yield_percent=104.0 is outside the allowed range \[0.0, 100.0\]"),
+    (["yield_model=fitted", "yield_model.experiments={inputs}/experiments/one_condition.csv"],
+     r"one_condition.csv: rows 1-2 are all one condition .* needs experiments at two conditions or more"),
+    (["yield_model=fitted", "yield_model.experiments={inputs}/experiments/three_balls.csv"],
+     r"three_balls.csv: row 2 \(b\): ball_count=3 is outside the allowed range \[1, 2\]"),
+    (["yield_model=fitted", "yield_model.fit.models=[quadratic]"],
+     r"yield_model.fit.models\[0\]='quadratic' is not one of \['dose_linear', 'saturating', 'bpr_line'\]"),
+    (["yield_model=fitted", "yield_model.fit.thresholds_j=[-0.01]"],
+     r"yield_model.fit.thresholds_j\[0\]=-0.01 is outside the allowed range \(0.0, inf\]"),
+    (["yield_model=fitted", "yield_model.rtd.kind=tanks", "yield_model.rtd.tanks=3"],
+     r"yield_model.rtd.kind='tanks' is not one of \['plug', 'tanks_in_series', 'axial_dispersion'\]"),
+    (["yield_model=fitted", "yield_model.rtd.kind=tanks_in_series", "yield_model.rtd.tanks=0.5"],
+     r"yield_model.rtd.tanks=0.5 is outside the allowed range \[1.0, inf\]"),
+    (["yield_model=fitted", "yield_model.rtd.sensitivity_tanks=[0.5,3]"],
+     r"yield_model.rtd.sensitivity_tanks\[0\]=0.5 is outside the allowed range \[1.0, inf\]"),
+    (["yield_model=fitted", "yield_model.rtd.kind=axial_dispersion", "yield_model.target_yield_percent=100"],
+     r"yield_model.target_yield_percent=100 .* cannot be reached under yield_model.rtd.kind=axial_dispersion"),
     (["study=yield_calibration", "yield_model.lab.settle_s=5"],
      r"yield_model.lab.settle_s=5.0 leaves nothing of yield_model.lab.duration_s=3.0 to measure"),
     (["study=plant", "plant.bale_pet_fraction=0"], r"plant.bale_pet_fraction=0.0 is outside .*\(0.0, 1.0\]"),

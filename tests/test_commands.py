@@ -43,12 +43,14 @@ NOT_RUN = {
 LAB = ["lab.duration_s=0.3", "lab.settle_s=0.1", "lab.frequencies_hz=[25.0]", "lab.ball_diameters_m=[0.0176]"]
 RUN = ["sim=test", "sim.threads=1", "sim.shear_modulus_scale=0.01", "sim.settle_s=0.1", "sim.steady_after_s=0.1",
        "sim.duration_s=0.3", "plant.monte_carlo_draws=10", "optimiser.trials=30", "yield_model.lab.frequencies_hz=[30.0]",
-       "yield_model.lab.ball_diameters_m=[0.0206]", *LAB]
+       "yield_model.lab.ball_diameters_m=[0.0206]", "yield_model.lab.jar_inner_diameters_m=[0.028]",
+       "yield_model.lab.jar_inner_lengths_m=[0.05]", "yield_model.lab.starts=2", *LAB]
 SWEEP_JOBS = {"fig3b": ["scaleup.bpr=19,22.9"], "fig4": ["scaleup.region=DC,DE"], "plant": ["scaleup.bpr=19"],
               "plant_states": ["scaleup.region=DC"], "cheapest_mill_states": ["scaleup.region=DC", "optimiser.confirm=false"],
               "scaleup_rule": ["scaleup.bpr=19", "yield_model=bpr_line,specific_energy"],
               "bond_mill": ["interactions.liner-steel.restitution=0.5", "interactions.liner-steel.static_friction=0.5"],
-              "lab_validation": ["sim.threads=1", *LAB], "cheapest_mill": ["optimiser.confirm=false"]}
+              "lab_validation": ["sim.threads=1", *LAB], "cheapest_mill": ["optimiser.confirm=false"],
+              "yield_fit": ["yield_model.rtd.kind=plug,tanks_in_series"]}
 OTHERS = {"render": LAB, "calibrate": [*LAB, "restitutions=[0.6]", "frictions=[0.3]"],
           "surrogate": ["points=8", "holdout=0", "folds=8", "jobs=1", "sim.settle_s=0.1", "bounds.diameter_to_ball=[5.0,6.0]",
                         "bounds.fraction_of_critical=[0.8,0.9]", "bounds.fill_fraction=[0.2,0.25]",
@@ -89,9 +91,11 @@ def small(args: list[str], cache: Path, stand_ins: dict[str, str]) -> list[str]:
 
 @pytest.fixture(scope="module")
 def stand_ins(tmp_path_factory) -> dict[str, str]:
-    """A user's own files the docs name: a price table, a closed STL vessel, a video of two balls."""
+    """A user's own files the docs name: a price table, kinetics experiments, a closed STL vessel, a
+    video of two balls."""
     d = tmp_path_factory.mktemp("own_files")
     shutil.copy(ROOT / "src/ballmill/data/prices.csv", d / "prices_2025.csv")
+    shutil.copy(ROOT / "src/ballmill/data/yield_experiments.csv", d / "my_experiments.csv")
     trimesh.creation.cylinder(radius=0.2, height=0.2, sections=64).apply_transform(
         trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0])).export(d / "vessel.stl")
     frames = []
@@ -101,7 +105,8 @@ def stand_ins(tmp_path_factory) -> dict[str, str]:
             cv2.circle(frame, (x0 + 3 * k, 200), 88, 40, -1, lineType=cv2.LINE_AA)
         frames.append(frame)
     write_frames(frames, d / "run1.avi", 2134.0, 0.1)
-    return {"/home/me/prices_2025.csv": str(d / "prices_2025.csv"), "/path/vessel.stl": str(d / "vessel.stl"),
+    return {"/home/me/prices_2025.csv": str(d / "prices_2025.csv"),
+            "/home/me/my_experiments.csv": str(d / "my_experiments.csv"), "/path/vessel.stl": str(d / "vessel.stl"),
             "run1.avi": str(d / "run1.avi")}
 
 

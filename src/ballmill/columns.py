@@ -86,6 +86,8 @@ RECORD = {
         "impact_power_w_per_kg_pet_se": "its standard error",
         "impact_frequency_per_s_per_kg_pet": "collisions of at least impact_threshold_j per second per kg of PET",
         "impact_frequency_per_s_per_kg_pet_se": "its standard error",
+        "collision_log_share": ("energy the collision log books in the averaging window / the energy balance's "
+                                "dissipation there: below 1 by contacts still open at the run's end"),
         "collision_dose_kj_per_kg_pet": "energy dissipated in all collisions per kg of PET over the residence time",
         "impact_dose_kj_per_kg_pet": "the same for collisions of at least impact_threshold_j",
         "electricity_usd_per_yr": "the mill's electricity per year (DEM power x hours x price)",
@@ -154,19 +156,36 @@ RECORD = {
             ("length_to_diameter", "length / diameter"), ("diameter_to_ball", "diameter / ball diameter"),
             ("restitution", "ball-ball and ball-wall restitution"), ("friction", "ball-ball and ball-wall friction"))},
     }),
-    "yield rules": ("an energy rule's dose line and the residence time's fixed point (yield_model)", {
+    "yield rules": (("a dose rule's yield curve (an energy rule's dose line, or the fitted model), the mill's "
+                     "residence-time distribution and the residence time's fixed point (yield_model)"), {
         "yield_mode": "target_yield (residence time solved) or fixed_time (yield reported)",
         "calibration_dir": "the lab calibration's cache folder",
         "target_yield_percent": "the yield the residence time is solved for",
-        "target_dose_kj_per_kg_pet": "the dose per kg of PET that gives the target yield",
+        "target_dose_kj_per_kg_pet": "the mean dose per kg of PET whose yield, averaged over the RTD, is the target",
+        "rtd_kind": "the mill's residence-time distribution (yield_model.rtd.kind)",
+        "rtd_tanks": "its n of tanks in series", "rtd_peclet": "its Peclet number (axial dispersion)",
+        "rtd_dose_factor": "the mean dose the target needs under the RTD / the dose it needs in plug flow",
+        "fit_model": "the fitted model chosen (dose_linear, saturating or bpr_line)",
+        "fit_measure": "its dose rate (collision_power_w_per_kg or impact_power_w_per_kg); empty for bpr_line",
+        "fit_threshold_j": "its E* (impact measure; empty for all collisions)",
+        "fit_cv_rmse_percent": "its leave-one-condition-out cross-validated RMS error",
+        "fit_lab_rate_rel_se": "the lab dose rates' relative standard error (RMS over the lab conditions)",
+        "fit_dir": "the fit's cache folder (rows, candidates, predictions, fit.json)",
+        "fit_<param>": "a parameter of the chosen model (a_percent, b_percent_per_kj_per_kg; ymax_percent, "
+                       "k_per_kj_per_kg, d0_kj_per_kg; slope_percent, intercept_percent)",
+        "fit_<param>_se": "its standard error (the fit's covariance)",
         "yield_measure": "the dose rate the line uses (collision_power_w_per_kg or impact_power_w_per_kg)",
         "yield_a_percent": "intercept a of Y = a + b D",
         "yield_b_percent_per_kj_per_kg": "slope b of Y = a + b D (D in kJ per kg of PET)",
         "yield_b_se_percent_per_kj_per_kg": "its standard error, from the lab rate's",
         "lab_rate_w_per_kg_balls": "the lab DEM's dose rate per kg of balls at the nominal condition",
         "lab_rate_se_w_per_kg_balls": "its standard error",
-        "residence_time_se_min": "standard error of the solved residence time (from the mill's dose rate)",
-        "fixed_point_iterations": "DEM runs the fixed point took",
+        "residence_time_se_min": ("standard error of the solved residence time: the mill's dose rate's and the "
+                                  "target dose's (the lab rate's, the fit's) relative errors / (1 + "
+                                  "fixed_point_rate_exponent)"),
+        "fixed_point_iterations": "DEM runs the fixed point took (the root's mill besides, when interpolated)",
+        "fixed_point_root": "how the residence time was found: interpolated inside a bracket, or simulated",
+        "fixed_point_rate_exponent": "alpha of the mill's dose rate ~ tau^alpha near the root (the mill-size feedback)",
         "fixed_point_dose_miss": "relative miss of the final mill's dose against the target dose",
         "fixed_point_history_min": "the residence times tried, in order (space-separated)",
     }),
@@ -194,6 +213,16 @@ RECORD = {
         "lab_ball_diameter_m": "their ball diameter", "lab_jar_material": "their jar material",
         "bpr_basis": "the BPR's powder: PET + NaOH, or PET alone",
         "calibration_key": "hash of the lab conditions: the calibration's cache folder",
+    }),
+    "yield fit": (("study=yield_fit: the experiments table and the fit's choice (its model in the yield rules' fit_ "
+                  "columns)"), {
+        "experiments": "the experiments table (yield_model.experiments)",
+        "experiments_digest": "hash of its content", "experiments_rows": "its rows",
+        "experiments_conditions": "its experimental conditions (all but the milling time)",
+        "lab_conditions": "the lab DEM runs they need (jar, balls, frequency)",
+        "fit_key": "hash of the table and what sets its doses: the fit's cache folder",
+        "fit_candidate": "the candidate chosen: model and dose measure",
+        "fit_candidates_within_one_se": "candidates whose CV error is within one standard error of the lowest",
     }),
     "plant": ("study=plant: the plant around the mill on BioSTEAM (the mill itself in the design columns)", {
         "plant_fresh_pet_kg_per_h": "clean PET the mill needs from outside", "plant_mill_pet_kg_per_h": "PET through "

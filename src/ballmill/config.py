@@ -308,34 +308,95 @@ def check_list(name: str, values: list, hi: float | None = None, lo_open: bool =
 class KineticsLabConfig:
     """The lab experiments behind the BPR line, as the lab DEM simulates them: an MM400 with
     balls of one size, the BPR set by the powder mass.  Which of these the literature states
-    and which are assumed: data/yield_lab_conditions.csv."""
+    and which are assumed: data/yield_lab_conditions.csv.  The jar's nominal bore and volume are
+    the lab group's (lab.jar_inner_diameter_m, lab.jar_volume_ml)."""
 
     frequency_hz: float = rng(30.0, 0.0, None, lo_open=True, doc="shaking frequency of the kinetics experiments (Hz)")
     balls_per_jar: int = rng(1, 1, 2, doc="balls in the jar")
     ball_diameter_m: float = rng(0.0206, 0.0, None, lo_open=True, doc="ball diameter (m)")
     jar_material: str = field(default="steel", metadata={"doc": "jar material, a name of materials.*"})
     bpr_basis: str = field(default="pet_plus_naoh", metadata={
-        "choices": ("pet_plus_naoh", "pet"), "doc": "the BPR's powder: PET + stoichiometric NaOH, or PET alone"})
-    duration_s: float = rng(3.0, 0.0, None, lo_open=True, doc="simulated milling (s)")
+        "choices": ("pet_plus_naoh", "pet"),
+        "doc": "the BPR's powder: PET + NaOH (at the mill's NaOH:PET ratio), or PET alone"})
+    duration_s: float = rng(3.0, 0.0, None, lo_open=True, doc="simulated milling of every lab condition (s)")
     settle_s: float = rng(0.5, 0.0, None, doc="start-up left out of the dose rate (s)")
+    starts: int = rng(4, 1, None, doc=("starts of every lab condition, each with its own small random initial speed, "
+                                       "pooled (a ball may slide in place from one start and bounce from another)"))
     frequencies_hz: list[float] = field(default_factory=lambda: [25.0, 30.0], metadata={
         "doc": "frequencies of the sensitivity run (the calibration's alternatives)"})
     ball_diameters_m: list[float] = field(default_factory=lambda: [0.0176, 0.0206], metadata={
         "doc": "ball sizes of the sensitivity run"})
+    jar_inner_diameters_m: list[float] = field(default_factory=lambda: [0.028, 0.032], metadata={
+        "doc": "jar bores of the sensitivity run, each at the nominal length and condition (m)"})
+    jar_inner_lengths_m: list[float] = field(default_factory=lambda: [0.040, 0.050], metadata={
+        "doc": "jar inner lengths, end to end, of the sensitivity run, each at the nominal bore and condition (m)"})
 
     def __post_init__(self):
-        check_positive_lists(self, "yield_model.lab", ("frequencies_hz", "ball_diameters_m"))
+        check_positive_lists(self, "yield_model.lab", ("frequencies_hz", "ball_diameters_m", "jar_inner_diameters_m",
+                                                       "jar_inner_lengths_m"))
+
+
+# The yield models of kinetics.py and the residence-time distributions of a continuous mill.
+YIELD_MODELS = ("dose_linear", "saturating", "bpr_line")
+
+
+@dataclass
+class YieldFitConfig:
+    """How the experiments table is fitted (study=yield_fit, kinetics.py): the candidate models,
+    the dose measures (all collisions, and those of at least each E* of a grid), the level of the
+    parameters' confidence intervals."""
+
+    models: list[str] = field(default_factory=lambda: list(YIELD_MODELS), metadata={
+        "doc": "candidate models, of dose_linear, saturating, bpr_line (the last only where every experiment has "
+               "one milling time)"})
+    thresholds_j: list[float] = field(default_factory=lambda: [0.001, 0.003, 0.01, 0.02], metadata={
+        "doc": "E* of the impact-dose measures tried beside all collisions (J)"})
+    confidence: float = rng(0.95, 0.0, 1.0, lo_open=True, hi_open=True,
+                            doc="level of the parameters' confidence intervals (normal, from the fit's covariance)")
+
+    def __post_init__(self):
+        check_positive_lists(self, "yield_model.fit", ("thresholds_j",))
+        if not self.models:
+            raise ConfigError("yield_model.fit.models=[] is empty: give at least one of " + ", ".join(YIELD_MODELS))
+        for i, m in enumerate(self.models):
+            if m not in YIELD_MODELS:
+                raise ConfigError(f"yield_model.fit.models[{i}]={m!r} is not one of {list(YIELD_MODELS)}")
+
+
+@dataclass
+class RtdConfig:
+    """The continuous mill's residence-time distribution: the mill's yield is the yield averaged
+    over it.  No measured RTD of a continuous ball mill could be read here (data/mill_rtd.csv lists
+    the sources looked for): tanks and peclet are assumptions, their ranges swept in study=yield_fit."""
+
+    kind: str = field(default="plug", metadata={
+        "choices": ("plug", "tanks_in_series", "axial_dispersion"),
+        "doc": "plug flow (every particle stays the mean time), n tanks in series, or axial dispersion"})
+    tanks: float = rng(3.0, 1.0, None, doc="tanks_in_series: n (1: one perfectly mixed mill); assumed, not measured")
+    peclet: float = rng(10.0, 0.0, None, lo_open=True,
+                        doc="axial_dispersion: Pe = u L / E (large: near plug flow); assumed, not measured")
+    sensitivity_tanks: list[float] = field(default_factory=lambda: [1.0, 2.0, 3.0, 5.0, 10.0, 30.0], metadata={
+        "doc": "study=yield_fit: the n of tanks in series its RTD table tries"})
+    sensitivity_peclets: list[float] = field(default_factory=lambda: [2.0, 5.0, 10.0, 20.0, 50.0], metadata={
+        "doc": "study=yield_fit: the Peclet numbers its RTD table tries"})
+
+    def __post_init__(self):
+        check_positive_lists(self, "yield_model.rtd", ("sensitivity_tanks", "sensitivity_peclets"))
+        for i, n in enumerate(self.sensitivity_tanks):
+            _check_field(f"yield_model.rtd.sensitivity_tanks[{i}]", n, {"range": (1.0, None, False, False)})
 
 
 @dataclass
 class YieldModelConfig:
-    """TPA yield of the mill: the seed's BPR line, or yield from the collision dose per kg of
-    PET calibrated on the lab DEM (docs/explanation/yield.md)."""
+    """TPA yield of the mill: the seed's BPR line, yield from the collision dose per kg of PET
+    calibrated on the lab DEM, or a model fitted to kinetics experiments
+    (docs/explanation/yield.md)."""
 
     rule: str = field(default="bpr_line", metadata={
-        "choices": ("bpr_line", "specific_energy", "impact_threshold"),
+        "choices": ("bpr_line", "specific_energy", "impact_threshold", "fitted"),
         "doc": "bpr_line: yield from the BPR; specific_energy: from the collision dose; impact_threshold: from the "
-               "dose of impacts of at least impact_threshold_j"})
+               "dose of impacts of at least impact_threshold_j; fitted: the model and dose measure the experiments "
+               "table chooses (study=yield_fit)"})
     bpr_slope_percent: float = field(default=6.38, metadata={
         "doc": "slope of the lab's yield line Y = slope BPR + intercept (% per unit BPR)"})
     bpr_intercept_percent: float = field(default=-46.35, metadata={"doc": "intercept of the lab's yield line (%)"})
@@ -346,9 +407,13 @@ class YieldModelConfig:
         "doc": "use the line outside [bpr_min, bpr_max] (refused otherwise)"})
     impact_threshold_j: float = rng(0.01, 0.0, None, lo_open=True,
                                     doc="E*: collisions with a normal impact energy at least this count (J)")
+    mill_stiffness: str = field(default="physical", metadata={
+        "choices": ("physical", "sim"),
+        "doc": "dose measures of impacts above E*: the mill's DEM at the materials' physical stiffness, as the lab's "
+               "(the impact spectrum shifts with stiffness), or at the sim preset's shear_modulus_scale"})
     mode: str = field(default="target_yield", metadata={
         "choices": ("target_yield", "fixed_time"),
-        "doc": "energy rules: solve the residence time for the target, or keep scaleup.residence_time_min"})
+        "doc": "dose rules: solve the residence time for the target, or keep scaleup.residence_time_min"})
     target_yield_percent: float | None = rng(None, 0.0, 100.0, lo_open=True,
                                              doc="null: the BPR line's yield at this BPR")
     tolerance: float = rng(0.01, 0.0, 1.0, lo_open=True, doc="fixed point: relative change of the residence time")
@@ -356,6 +421,13 @@ class YieldModelConfig:
     dose_batches: int = rng(10, 2, None, doc="averaging window split into this many batches for standard errors")
     lab: KineticsLabConfig = field(default_factory=KineticsLabConfig, metadata={
         "doc": "the lab experiments behind the line (yield_model.lab.*)"})
+    experiments: str = field(default="yield_experiments.csv", metadata={
+        "doc": "rule=fitted, study=yield_fit: the kinetics experiments, a data/ table or a path to one of the same "
+               "columns (docs/how-to/yield-rules.md)"})
+    fit: YieldFitConfig = field(default_factory=YieldFitConfig, metadata={
+        "doc": "how the experiments are fitted (yield_model.fit.*)"})
+    rtd: RtdConfig = field(default_factory=RtdConfig, metadata={
+        "doc": "the mill's residence-time distribution (yield_model.rtd.*)"})
 
 
 @dataclass
@@ -573,7 +645,7 @@ class StudyConfig:
     name: str = field(default="design", metadata={
         "doc": "the run's name: its folder under outputs/runs or outputs/sweeps"})
     kind: str = field(default="design", metadata={
-        "choices": ("design", "drum", "lab", "yield_calibration", "plant", "cheapest_mill"),
+        "choices": ("design", "drum", "lab", "yield_calibration", "yield_fit", "plant", "cheapest_mill"),
         "doc": "the pipeline the run executes (studies.STUDIES)"})
     observations: str | None = field(default=None, metadata={"doc": "observations.csv drawn beside a lab study"})
     experiment: str | None = field(default=None, metadata={

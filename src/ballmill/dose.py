@@ -5,9 +5,12 @@ Per kg of PET held up in the mill (or any other mass: the caller says which):
   frequency of collisions (1/(s kg));
 - the same counting only collisions whose normal impact energy (1/2 m* v_n^2 at first touch)
   is at least a threshold E* (J).
-A collision counts in the window when it starts there (and has ended: a ball resting for the
-whole window is not in the log).  Standard errors are those of the window's batch means: the
-window is cut into `batches` equal parts and the spread of their rates gives the error.
+A collision counts in the window when it starts there and has ended: the log books a contact's
+whole loss at its start, and one still open when the run ends is not in it.  That bias is
+measured, not corrected: given the run's energy book, `collision_log_share` is the dissipation
+the log books in the window over the dissipation the engine's energy balance counts there
+(1: none missing).  Standard errors are those of the window's batch means: the window is cut
+into `batches` equal parts and the spread of their rates gives the error.
 The dose of a run is a dose rate times the milling (residence) time.
 """
 
@@ -21,9 +24,10 @@ MEASURES = ("collision_power_w_per_kg", "collision_frequency_per_s_per_kg", "imp
 
 
 def dose_rates(collisions: pd.DataFrame, after_s: float, until_s: float, mass_kg: float, threshold_j: float,
-               batches: int = 10) -> dict:
+               batches: int = 10, energy: pd.DataFrame | None = None) -> dict:
     """Dose rates per kg of `mass_kg` over collisions starting in (after_s, until_s], each with
-    its standard error (`<measure>_se`), and the threshold used."""
+    its standard error (`<measure>_se`), the threshold used and, given the run's energy table,
+    the share of the window's dissipation the log books."""
     window = until_s - after_s
     if window <= 0 or mass_kg <= 0:
         raise ValueError(f"dose: empty window ({after_s:g} s to {until_s:g} s) or mass {mass_kg:g} kg")
@@ -46,7 +50,18 @@ def dose_rates(collisions: pd.DataFrame, after_s: float, until_s: float, mass_kg
     out = {"impact_threshold_j": threshold_j, "largest_impact_j": float(c.impact_energy_j.max()) if len(c) else 0.0}
     for name, (value, se) in values.items():
         out[name], out[f"{name}_se"] = value, se
+    if energy is not None:
+        out["collision_log_share"] = float(dissipated.sum()) / booked_j(energy, after_s, until_s)
     return out
+
+
+def booked_j(energy: pd.DataFrame, after_s: float, until_s: float) -> float:
+    """Energy dissipated (normal, tangential, rolling; all replicas) between the samples nearest
+    after_s and until_s, from the energy table's cumulative book (J)."""
+    lost = energy.groupby("t_s")[["dissipated_normal_j", "dissipated_tangential_j", "dissipated_rolling_j"]].sum()
+    total = lost.sum(axis=1)
+    times = total.index.to_numpy()
+    return float(total.iloc[abs(times - until_s).argmin()] - total.iloc[abs(times - after_s).argmin()])
 
 
 def dose_j_per_kg(rate_w_per_kg: float, minutes: float) -> float:

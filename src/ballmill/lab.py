@@ -18,7 +18,7 @@ import pandas as pd
 
 from .columns import add_frame_velocities
 from .config import ConfigError, InteractionConfig, MM400Config, SimConfig
-from .dem import Body, Capsule, Engine, Interaction, Motion, Recorder, SystemSpec, init_taichi
+from .dem import Body, Capsule, Engine, Interaction, Motion, Recorder, Results, SystemSpec, init_taichi
 from .scenario import engine_materials, engine_options, time_step_s
 
 JAR_AXIS = (1.0, 0.0, 0.0)  # the jar lies horizontally along x; it swings about a vertical axis
@@ -32,6 +32,17 @@ def jar_half_length_m(cfg: MM400Config) -> float:
         raise ConfigError(f"lab.jar_inner_diameter_m={cfg.jar_inner_diameter_m}: a sphere of that size exceeds "
                           f"lab.jar_volume_ml={cfg.jar_volume_ml}")
     return straight / 2
+
+
+def jar_inner_length_m(cfg: MM400Config) -> float:
+    """The jar's inner length end to end (m)."""
+    return 2 * jar_half_length_m(cfg) + cfg.jar_inner_diameter_m
+
+
+def jar_volume_ml(bore_m: float, length_m: float) -> float:
+    """Inner volume of a capsule jar of a bore and a length end to end (hemispherical ends), mL."""
+    r = bore_m / 2
+    return (math.pi * r**2 * (length_m - bore_m) + 4 / 3 * math.pi * r**3) * 1e6
 
 
 def jar_capsule(cfg: MM400Config) -> Capsule:
@@ -118,15 +129,21 @@ def mm400_spec(cfg: MM400Config, conds: list[Condition], materials, interactions
     return mm400_system(cfg, conds, mats, pairs, sim.seed)
 
 
-def simulate_mm400(cfg: MM400Config, conds: list[Condition], materials, interactions: dict[str, InteractionConfig],
-                   sim: SimConfig):
-    """Run every condition for cfg.duration_s, sampling at the camera rate: (trajectories, collisions)."""
+def run_mm400(cfg: MM400Config, conds: list[Condition], materials, interactions: dict[str, InteractionConfig],
+              sim: SimConfig) -> Results:
+    """Run every condition (a replica each) for cfg.duration_s, sampling at the camera rate."""
     spec = mm400_spec(cfg, conds, materials, interactions, sim)
     frame = 1.0 / cfg.camera_fps
     dt = frame / math.ceil(frame / time_step_s(spec, sim))  # a whole number of steps per camera frame
     init_taichi(sim.arch, sim.precision, sim.threads, sim.seed)
     engine = Engine(spec, engine_options(sim, dt))
-    res = engine.run(cfg.duration_s, frame, Recorder(engine, trajectory_every=1), label="mm400")
+    return engine.run(cfg.duration_s, frame, Recorder(engine, trajectory_every=1), label="mm400")
+
+
+def simulate_mm400(cfg: MM400Config, conds: list[Condition], materials, interactions: dict[str, InteractionConfig],
+                   sim: SimConfig):
+    """Run every condition for cfg.duration_s, sampling at the camera rate: (trajectories, collisions)."""
+    res = run_mm400(cfg, conds, materials, interactions, sim)
     return res.trajectories, res.collisions
 
 

@@ -244,6 +244,72 @@ def plot_dissipation_spectra(spectra: pd.DataFrame, thresholds_j=()):
     return fig
 
 
+def best_per_model(predictions: pd.DataFrame, candidates: pd.DataFrame) -> list[str]:
+    """The chosen candidate, then each other model's lowest CV error candidate."""
+    ranked = candidates.dropna(subset=["cv_rmse_percent"]).sort_values("cv_rmse_percent")
+    chosen = candidates[candidates.chosen].candidate.tolist()
+    return chosen + [g.candidate.iloc[0] for m, g in ranked.groupby("model", sort=False)
+                     if g.candidate.iloc[0] not in chosen and m != candidates[candidates.chosen].model.iloc[0]]
+
+
+def plot_parity(predictions: pd.DataFrame, candidates: pd.DataFrame):
+    """Observed yield against the fit (left) and against the leave-one-condition-out prediction
+    (right): the chosen candidate and each other model's best, error bars the yields' errors."""
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5), sharey=True)
+    for k, name in enumerate(best_per_model(predictions, candidates)):
+        g = predictions[predictions.candidate == name]
+        cv = candidates.set_index("candidate").cv_rmse_percent[name]
+        for ax, col in zip(axes, ("fitted_percent", "cv_predicted_percent")):
+            ax.errorbar(g[col], g.yield_percent, yerr=g.yield_error_percent, fmt="os^dv"[k % 5], ms=4, capsize=2,
+                        color=f"C{k}", label=f"{name} (CV RMSE {cv:.3g} %)", alpha=0.8)
+    for ax, label in zip(axes, ("fitted yield (%)", "cross-validated prediction (%)")):
+        ax.plot([0, 100], [0, 100], color="0.6", lw=0.8)
+        ax.set_xlim(0, 100)
+        ax.set_ylim(0, 100)
+        ax.set_xlabel(label)
+        ax.grid(True, lw=0.3)
+    axes[0].set_ylabel("measured yield (%)")
+    axes[0].legend(fontsize=7, loc="upper left")
+    fig.suptitle("Kinetics fit: parity (chosen model first)")
+    fig.tight_layout()
+    return fig
+
+
+def plot_residuals(predictions: pd.DataFrame):
+    """Measured minus cross-validated yield per experimental condition, with the yields' errors."""
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    g = predictions.assign(residual=predictions.yield_percent - predictions.cv_predicted_percent)
+    ax.errorbar(g.condition + 0.02 * (g.time_min - g.time_min.mean()) / max(g.time_min.std(), 1.0), g.residual,
+                yerr=g.yield_error_percent, fmt="o", ms=4, capsize=2)
+    ax.axhline(0, color="0.6", lw=0.8)
+    ax.set_xticks(sorted(g.condition.unique()))
+    ax.set_xlabel("experimental condition")
+    ax.set_ylabel("measured - CV prediction (%)")
+    ax.grid(True, lw=0.3)
+    ax.set_title(f"Residuals per condition: {g.candidate.iloc[0]}", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def plot_yield_time(curves: pd.DataFrame, points: pd.DataFrame | None = None):
+    """Yield against (mean residence) time, one line per `series`; the experiments as points."""
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for k, (series, g) in enumerate(curves.groupby("series", sort=False)):
+        ax.plot(g.time_min, g.yield_percent, color=f"C{k}", lw=1.3, ls="--" if series.startswith("lab") else "-",
+                label=series)
+    if points is not None:
+        ax.errorbar(points.time_min, points.yield_percent, yerr=points.yield_error_percent, fmt="ko", ms=4,
+                    capsize=2, label="experiments")
+    ax.set_xlabel("milling time, or the mill's mean residence time (min)")
+    ax.set_ylabel("TPA yield (%)")
+    ax.set_ylim(0, 102)
+    ax.grid(True, lw=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title("Yield against time: the lab's conditions and the mill")
+    fig.tight_layout()
+    return fig
+
+
 MSP_GROUPS = {  # cost categories of the MSP breakdown ($/kg rTPA), as stacked in the figures
     "capital and return": ["msp_capital_usd_per_kg"],
     "PET bales": ["msp_bales_usd_per_kg"],

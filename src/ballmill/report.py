@@ -16,18 +16,22 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from omegaconf import OmegaConf
 
-from .config import MM400_GEOMETRY, ConfigError, StudyConfig, StudyReport, one_line, to_object
+from .config import MM400_GEOMETRY, ConfigError, RtdConfig, StudyConfig, StudyReport, one_line, to_object
 from .data import table
 from .dose import dose_rates
 from .files import read_json
 from .impacts import energy_spectrum
+from .kinetics import PARAMS, TIME_SPAN, FittedCurve, lab_time_curves, rtd_table
 from .plots import (
     FIGURES,
     plot_dissipation_spectra,
     plot_impact_spectra,
     plot_lab_validation,
     plot_measured_power,
+    plot_parity,
+    plot_residuals,
     plot_tornado,
+    plot_yield_time,
     save_figure,
     with_rule_labels,
 )
@@ -36,7 +40,7 @@ from .yields import pet_fraction
 SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv",
            "yield_lab_conditions.csv", "cost_correlations.csv", "macrs_7yr.csv", "plant_uncertainty.csv",
            "plant_chemicals.csv", "staffing.csv", "ghg_factors.csv", "egrid2022_states.csv", "published_anchors.csv",
-           "measured_mill_power.csv"]
+           "measured_mill_power.csv", "yield_experiments.csv", "mill_rtd.csv"]
 
 
 def collect(sweep_dir: Path) -> pd.DataFrame:
@@ -213,17 +217,18 @@ def mechanics_lines(name: str, ok: pd.DataFrame, seed: pd.Series, out_dir: Path)
         return []
     folder = Path(energy.calibration_dir.iloc[0])
     conds = pd.read_csv(folder / "conditions.csv")
-    nominal = conds[conds.nominal].iloc[0]
-    meta = read_json(folder / "calibration.json")
-    lab_log = pd.read_parquet(folder / "collisions.parquet").query(f"replica == {nominal.replica}")
+    lab_dir = Path(conds[conds.nominal].iloc[0].lab_dem_dir)
+    meta = read_json(lab_dir / "condition.json")
+    lab_log = pd.read_parquet(lab_dir / "collisions.parquet")
     mill_log = pd.read_parquet(Path(seed.dem_dir) / "collisions.parquet")
     thresholds = sorted(ok.impact_threshold_j[ok.yield_rule == "impact_threshold"].unique())
-    pet_fraction_lab = pet_fraction(meta["lab"]["bpr_basis"])
+    pet_fraction_lab = pet_fraction(read_json(folder / "calibration.json")["lab"]["bpr_basis"],
+                                    seed.naoh_feed_kg_per_h / seed.pet_feed_kg_per_h)
     seed_pet_kg = seed.pet_feed_kg_per_h * seed.residence_time_min / 60
     rows = []
     for label, log_, after, until, balls_kg, pet_kg in (
-            ("lab (nominal), BPR 19", lab_log, meta["settle_s"], meta["duration_s"], nominal.ball_mass_kg,
-             nominal.ball_mass_kg / 19 * pet_fraction_lab),
+            ("lab (nominal), BPR 19", lab_log, meta["settle_s"], meta["duration_s"], meta["ball_mass_kg"],
+             meta["ball_mass_kg"] / 19 * pet_fraction_lab),
             ("mill, seed design, BPR 19", mill_log, seed.dem_averaging_from_s, seed.dem_simulated_s, seed.ball_mass_kg,
              seed_pet_kg)):
         rates = {e: dose_rates(log_, after, until, balls_kg, e) for e in (thresholds or [1e-2])}
@@ -249,9 +254,9 @@ def yield_calibration_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_
     for rec in ok.itertuples():
         table = pd.read_csv(Path(rec.job_dir) / "lab_dose.csv")
         write_table(table, out_dir / f"{name}_lab_dose")
-        cols = ["balls", "frequency_hz", "ball_diameter_m", "nominal", "collision_power_w_per_kg",
-                "collision_power_w_per_kg_se", "collision_power_w_per_kg_relative", "impact_power_w_per_kg",
-                "impact_power_w_per_kg_relative", "largest_impact_j"]
+        cols = ["balls", "frequency_hz", "ball_diameter_m", "jar_inner_diameter_m", "jar_inner_length_m", "nominal",
+                "collision_power_w_per_kg", "collision_power_w_per_kg_se", "collision_power_w_per_kg_relative",
+                "impact_power_w_per_kg", "impact_power_w_per_kg_relative", "largest_impact_j", "collision_log_share"]
         text = (f"E* = {rec.impact_threshold_j} J; specific_energy: Y = {rec.specific_energy_yield_a_percent:.4g} + "
                 f"{rec.specific_energy_yield_b_percent_per_kj_per_kg:.4g} D (% per kJ/kg PET); impact_threshold: "
                 f"Y = {rec.impact_threshold_yield_a_percent:.4g} + "
@@ -261,6 +266,79 @@ def yield_calibration_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_
         lines += ["## Lab calibration of the dose line", "", text, "", table[cols].to_markdown(index=False, floatfmt=".4g"),
                   ""]
     return lines
+
+
+def interval(c: pd.Series, parameters: tuple[str, ...]) -> str:
+    """A candidate's parameters with their intervals, as text."""
+    return "; ".join(f"{p} = {c[p]:.4g} [{c[f'{p}_lo']:.4g}, {c[f'{p}_hi']:.4g}]" for p in parameters
+                     if p in c and pd.notna(c[p]))
+
+
+def yield_fit_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
+    """The fit behind the records' yield_model=fitted (their fit_dir): each candidate's
+    cross-validated error, fit and parameters with their intervals, the choice; parity and the
+    residuals per condition; yield against time in the lab; what each RTD of the sensitivity
+    lists costs against plug flow at the target."""
+    lines = []
+    for folder in map(Path, ok.fit_dir.dropna().unique() if "fit_dir" in ok else ()):
+        candidates, predictions, rows = (pd.read_csv(folder / f"{n}.csv") for n in ("candidates", "predictions", "rows"))
+        curve = FittedCurve.read(folder)
+        chosen = candidates[candidates.chosen].iloc[0]
+        write_table(candidates, out_dir / f"{name}_candidates")
+        shown = candidates.assign(parameters=[interval(c, PARAMS[c.model]) for _, c in candidates.iterrows()],
+                                  note=candidates.note.fillna(""))
+        shown = shown[["candidate", "cv_rmse_percent", "cv_rmse_se_percent", "chi2", "aic", "within_one_se", "chosen",
+                       "parameters", "note"]]
+        mine = predictions[predictions.candidate == chosen.candidate].assign(
+            residual_percent=lambda d: d.yield_percent - d.cv_predicted_percent)
+        per_condition = mine.groupby("condition").agg(
+            experiments=("experiment", ", ".join), times_min=("time_min", lambda t: " ".join(f"{x:g}" for x in t)),
+            yield_percent=("yield_percent", "mean"), cv_residual_rms_percent=(
+                "residual_percent", lambda r: float(np.sqrt(np.mean(r**2))))).reset_index()
+        write_table(per_condition, out_dir / f"{name}_residuals")
+        save_figure(plot_parity(predictions, candidates), out_dir / f"{name}_parity")
+        save_figure(plot_residuals(mine), out_dir / f"{name}_residuals")
+        evidence = ", ".join(f"{n} {e}" for e, n in rows.evidence.value_counts().items())
+        lines += ["## The fit of the kinetics experiments", "",
+                  (f"`{read_json(folder / 'fit.json')['experiments']}`: {len(rows)} rows ({evidence}), "
+                   f"{rows.condition.nunique()} conditions, {rows.dem_condition.nunique()} lab DEM conditions. Chosen: "
+                   f"**{chosen.candidate}** (CV RMSE {chosen.cv_rmse_percent:.3g} %), "
+                   f"{int(candidates.within_one_se.sum())} candidates within one standard error of the lowest CV "
+                   f"error. Parameters with their {read_json(folder / 'fit.json')['fit']['confidence']:.0%} "
+                   "intervals; a candidate the data cannot cross-validate says why."), "",
+                  shown.to_markdown(index=False, floatfmt=".4g"), "",
+                  f"![parity]({name}_parity.png)", "", "Residuals per condition (measured - CV prediction):", "",
+                  per_condition.to_markdown(index=False, floatfmt=".4g"), "", f"![residuals]({name}_residuals.png)", ""]
+        if curve.time_free:
+            continue
+        target = float(ok.target_yield_percent.dropna().iloc[0]) if "target_yield_percent" in ok else (
+            float(ok.bpr_line_yield_percent.iloc[0]))
+        curves = lab_time_curves(curve, rows, TIME_SPAN * rows.time_min.max())
+        save_figure(plot_yield_time(curves, rows), out_dir / f"{name}_lab_time")
+        rtd = rtd_table(curve, target, RtdConfig())
+        write_table(rtd, out_dir / f"{name}_rtd")
+        lines += [f"![yield against time in the lab]({name}_lab_time.png)", "",
+                  (f"What the mill's residence-time distribution costs at {target:.4g} %: the mean dose it needs / "
+                   "plug flow's (the residence time scales with it, less the mill-size feedback), and the yield "
+                   "plug flow's dose gives under it."), "", rtd.to_markdown(index=False, floatfmt=".4g"), ""]
+    return lines
+
+
+DESIGN_RTD_COLUMNS = ["rtd_kind", "rtd_tanks", "rtd_peclet", "rtd_dose_factor", "target_dose_kj_per_kg_pet",
+                      "residence_time_min", "residence_time_se_min", "fixed_point_root", "diameter_m", "length_m",
+                      "ball_count", "dem_power_w", "electricity_usd_per_t_pet", "purchase_cost_usd", "yield_percent"]
+
+
+def yield_design_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
+    """The designs under the fitted model, one per residence-time distribution, against plug flow's."""
+    table = ok[[c for c in DESIGN_RTD_COLUMNS if c in ok]].sort_values("rtd_dose_factor")
+    plug = table[table.rtd_kind == "plug"]
+    if len(plug):
+        for col in ("residence_time_min", "dem_power_w", "purchase_cost_usd"):
+            table[f"{col}_x_plug"] = table[col] / plug[col].iloc[0]
+    write_table(table, out_dir / f"{name}_designs")
+    return ["## The mill under the fitted model, by residence-time distribution", "",
+            table.to_markdown(index=False, floatfmt=".4g"), ""]
 
 
 PLANT_COLUMNS = ["bpr", "region", "plant_fresh_pet_kg_per_h", "plant_bales_kg_per_h", "plant_mill_pet_kg_per_h",
@@ -405,6 +483,8 @@ SECTIONS = {
     "lab": lab_lines,
     "scaleup_rule": scaleup_rule_lines,
     "yield_calibration": yield_calibration_lines,
+    "yield_fit": yield_fit_lines,
+    "yield_designs": yield_design_lines,
     "plant": plant_lines,
     "cheapest_mill": cheapest_mill_lines,
     "measured_power": measured_power_lines,

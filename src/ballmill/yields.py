@@ -53,15 +53,21 @@ def cap(y: float) -> float:
     return min(max(y, 0.0), 100.0)
 
 
-def pet_fraction(basis: str) -> float:
-    """PET's share of the powder a BPR is counted on: PET + stoichiometric NaOH (2 mol per repeat
-    unit), or PET alone."""
-    return 1.0 if basis == "pet" else 1.0 / (1.0 + stoichiometric_naoh_kg_per_h(1.0))
+def pet_fraction(basis: str, naoh_kg_per_kg_pet: float) -> float:
+    """PET's share of the powder a BPR is counted on: PET + NaOH at the given NaOH:PET mass ratio
+    (the mill's, so that lab and mill count alike), or PET alone."""
+    return 1.0 if basis == "pet" else 1.0 / (1.0 + naoh_kg_per_kg_pet)
+
+
+def stoichiometric_naoh_per_pet() -> float:
+    """kg NaOH per kg PET at 2 mol per repeat unit."""
+    return stoichiometric_naoh_kg_per_h(1.0)
 
 
 @dataclass(frozen=True)
 class DoseLine:
-    """Y = a + b D (%, D in J per kg of PET), fitted on the lab DEM for one dose measure."""
+    """Y = a + b D (%, D in J per kg of PET), fitted on the lab DEM for one dose measure (a
+    dose.py rate, above threshold_j for the impact measure)."""
 
     measure: str
     a_percent: float
@@ -69,9 +75,23 @@ class DoseLine:
     b_se: float
     lab_rate_w_per_kg_balls: float
     lab_rate_se: float
+    threshold_j: float | None = None
+    time_free = False
 
-    def yield_percent(self, dose_j_per_kg: float) -> float:
-        return cap(self.a_percent + self.b_percent_per_j_per_kg * dose_j_per_kg)
+    @property
+    def rate(self) -> str:
+        return self.measure
+
+    def yield_percent(self, dose_j_per_kg):
+        return np.clip(self.a_percent + self.b_percent_per_j_per_kg * np.asarray(dose_j_per_kg, float), 0.0, 100.0)
+
+    def kinks_j_per_kg(self) -> list[float]:
+        """The doses of 0 and 100 %, where the cap bends the line."""
+        return [(y - self.a_percent) / self.b_percent_per_j_per_kg for y in (0.0, 100.0)]
+
+    def dose_rel_se(self, target_percent: float) -> float:
+        """Relative standard error of the target dose (the slope's, from the lab rate's)."""
+        return self.b_se / self.b_percent_per_j_per_kg
 
     def dose_for(self, target_percent: float) -> float:
         """The dose (J/kg PET) that gives the target yield."""
@@ -87,46 +107,59 @@ class DoseLine:
                 "lab_rate_w_per_kg_balls": self.lab_rate_w_per_kg_balls, "lab_rate_se_w_per_kg_balls": self.lab_rate_se}
 
 
-def fit_dose_line(measure: str, lab_rate_w_per_kg_balls: float, lab_rate_se: float, cfg: YieldModelConfig) -> DoseLine:
+def fit_dose_line(measure: str, lab_rate_w_per_kg_balls: float, lab_rate_se: float, cfg: YieldModelConfig,
+                  naoh_kg_per_kg_pet: float) -> DoseLine:
     """The BPR line re-expressed against the lab dose: at BPR B the jar holds m_balls / B of powder,
-    PET a fraction f of it, so the dose per kg PET in lab_time_min is rate * B / f * t."""
+    PET a fraction f of it (at the mill's NaOH:PET ratio), so the dose per kg PET in lab_time_min
+    is rate * B / f * t."""
     if lab_rate_w_per_kg_balls <= 0:
         raise ConfigError(f"yield_model: the lab DEM gives no dose for {measure} (at E* = {cfg.impact_threshold_j} J, "
                           "no lab collision reaches it): lower yield_model.impact_threshold_j")
     bpr = np.linspace(cfg.bpr_min, cfg.bpr_max, LINE_POINTS)
     y = line_yield(bpr, cfg)
     keep = (y > 0) & (y <= 100)
-    dose = dose_j_per_kg(lab_rate_w_per_kg_balls * bpr[keep] / pet_fraction(cfg.lab.bpr_basis), cfg.lab_time_min)
+    dose = dose_j_per_kg(lab_rate_w_per_kg_balls * bpr[keep] / pet_fraction(cfg.lab.bpr_basis, naoh_kg_per_kg_pet),
+                         cfg.lab_time_min)
     b, a = np.polyfit(dose, y[keep], 1)
     return DoseLine(measure, float(a), float(b), float(b * lab_rate_se / lab_rate_w_per_kg_balls),
-                    lab_rate_w_per_kg_balls, lab_rate_se)
+                    lab_rate_w_per_kg_balls, lab_rate_se,
+                    cfg.impact_threshold_j if measure == MEASURE["impact_threshold"] else None)
 
 
 @dataclass
 class FixedPoint:
-    """The residence time that gives the target dose in the mill it sizes."""
+    """The residence time that gives the target dose in the mill it sizes: the root interpolated
+    inside the bracket of the mills simulated (or, unbracketed, the one simulated within the
+    tolerance), how it was found, and its standard error."""
 
     residence_time_min: float
     iterations: int
     history_min: list[float] = field(default_factory=list)
-    se_min: float = 0.0  # from the standard error of its dose rate
-    miss: float = 0.0  # its dose / the target - 1
+    se_min: float = 0.0
+    root: str = ""
+    rate_exponent: float = 0.0  # alpha of rate ~ tau^alpha near the root (the mill-size feedback)
 
     def as_record(self) -> dict:
         return {"residence_time_se_min": self.se_min, "fixed_point_iterations": self.iterations,
-                "fixed_point_dose_miss": self.miss,
+                "fixed_point_root": self.root, "fixed_point_rate_exponent": self.rate_exponent,
                 "fixed_point_history_min": " ".join(f"{t:.6g}" for t in self.history_min)}
 
 
+MIN_FEEDBACK = -0.9  # alpha below it (a rate falling almost as fast as tau grows) is taken as this
+
+
 def solve_residence_time(start_min: float, dose_target_j_per_kg: float, rate_at: Callable[[float], tuple[float, float]],
-                         tolerance: float, max_iterations: int) -> FixedPoint:
+                         tolerance: float, max_iterations: int, target_rel_se: float = 0.0) -> FixedPoint:
     """tau = D / r(tau): r(tau) (W/kg PET, with its standard error) is the DEM of the mill that tau
     sizes.  On log tau: a plain step first, then secant steps (each at most threefold up or down,
     so that a far first guess does not ask for a huge mill), and once the root is bracketed,
     regula falsi inside the bracket (a DEM's rate is a rough function of the mill).  It stops when
     the next tau moves by less than `tolerance` (relative), or the bracket is that narrow or
     narrower than twice its ends' relative standard error (no DEM run can place the root better
-    than its rate's noise); the answer is the simulated tau closest to its own fixed point."""
+    than its rate's noise).  The answer is the root interpolated between the bracket's ends, else
+    the simulated tau within the tolerance.  Its standard error: with r ~ tau^alpha near the root,
+    tau ~ (D / r)^(1 / (1 + alpha)), so the relative errors of the mill's rate and of the target
+    dose (`target_rel_se`: the lab's) add in quadrature and shrink by 1 + alpha."""
     tried: list[tuple[float, float, float, float]] = []  # (log tau, log(next tau / tau), relative se, tau)
     for k in range(1, max_iterations + 1):
         tau = start_min if not tried else math.exp(next_log_tau(tried))
@@ -143,11 +176,34 @@ def solve_residence_time(start_min: float, dose_target_j_per_kg: float, rate_at:
         else:
             narrow = False
         if abs(math.expm1(tried[-1][1])) < tolerance or narrow:
-            best = min(tried, key=lambda t: abs(t[1]))
-            return FixedPoint(best[3], k, [t[3] for t in tried], best[3] * best[2], math.expm1(-best[1]))
+            return root_of(tried, k, target_rel_se)
     raise NotConverged(f"yield_model: the residence time did not settle in {max_iterations} DEM runs (min: "
                        f"{', '.join(f'{t[3]:.4g}' for t in tried)}); raise yield_model.max_iterations or "
                        "yield_model.tolerance")
+
+
+def root_of(tried: list[tuple[float, float, float, float]], iterations: int, target_rel_se: float) -> FixedPoint:
+    """The fixed point from the mills tried: interpolated inside the bracket, else the closest."""
+    above = [t for t in tried if t[1] > 0]
+    below = [t for t in tried if t[1] <= 0]
+    history = [t[3] for t in tried]
+    if above and below:
+        (x0, f0, s0, t0), (x1, f1, s1, t1) = max(above), min(below)
+        x = x0 + f0 / (f0 - f1) * (x1 - x0)
+        # f = log D - log r - log tau: alpha = d log r / d log tau = -1 - df / dx
+        alpha, rel = -1.0 - (f1 - f0) / (x1 - x0), max(s0, s1)
+        how = f"interpolated between {t0:.4g} and {t1:.4g} min"
+    else:
+        best = min(tried, key=lambda t: abs(t[1]))
+        x, rel = best[0], best[2]
+        near = sorted(tried, key=lambda t: abs(t[0] - best[0]))[:2]
+        known = len(near) == 2 and near[1][0] != near[0][0]
+        alpha = -1.0 - (near[1][1] - near[0][1]) / (near[1][0] - near[0][0]) if known else 0.0
+        how = ("simulated, within the tolerance (not bracketed)" if known
+               else "simulated, within the tolerance at the first run (the mill-size feedback unknown: taken as none)")
+    alpha = max(alpha, MIN_FEEDBACK)
+    tau = math.exp(x)
+    return FixedPoint(tau, iterations, history, tau * math.hypot(rel, target_rel_se) / (1.0 + alpha), how, alpha)
 
 
 def next_log_tau(tried: list[tuple[float, float, float, float]]) -> float:
