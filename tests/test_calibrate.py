@@ -93,11 +93,11 @@ def test_bayesian_search_finds_the_minimum_of_a_smooth_response_in_nine_trials(m
 
 
 def test_calibrate_both_methods_writes_the_comparison(experiment, tmp_path):
-    main(["calibrate", f"videos={experiment}", f"out={tmp_path}", *LAB, "method=both", "restitutions=[0.3,0.6,0.9]",
-          "frictions=[0.1,0.3,0.5]", "trials=6", "batch=3"])
     """The grid finds the filmed pair as alone; the search's best is its lowest-scoring trial, and
     the trials it needed to reach the grid's best score are counted from its trials as written:
     the first whose best score so far is at or below the grid's, or none when no trial is."""
+    main(["calibrate", f"videos={experiment}", f"out={tmp_path}", *LAB, "method=both", "restitutions=[0.3,0.6,0.9]",
+          "frictions=[0.1,0.3,0.5]", "trials=6", "batch=3"])
     best = json.loads((tmp_path / "best.json").read_text())
     assert best["method"] == "both" and best["grid_points"] == 9 and best["search_trials"] == 6
     assert best["wall_restitution"] == HIDDEN[0]

@@ -12,6 +12,7 @@ from ballmill.config import DrumConfig, InteractionConfig, MaterialConfig, SimCo
 from ballmill.dem import Engine, EngineOptions, init_taichi
 from ballmill.drum import drum_spec
 from ballmill.scenario import time_step_s
+
 pytestmark = pytest.mark.skipif(not is_arch_supported(ti.cuda), reason="no CUDA device")
 
 DRUM = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.01)  # 304 balls

@@ -73,8 +73,8 @@ def plan_plant(s: Scenario) -> Plan:
     mill_plan = plan_design(replace(s, scaleup=replace(scale, pet_feed_kg_per_h=mill_pet, region=None)))
 
     def execute(out_dir: Path) -> dict:
-        from .plant.study import run as run_plant  # BioSTEAM: seconds to import, only here
-        from .plant.system import MillSpec
+        from ..plant.study import run as run_plant  # BioSTEAM: seconds to import, only here
+        from ..plant.system import MillSpec
 
         rec = mill_plan.execute(out_dir)
         to_cost_year = (lookup("cepci.csv", "year", s.plant.cost_year, "cepci")
