@@ -82,8 +82,8 @@ def doses(s: Scenario, exps: Experiments, folders: list[Path]) -> pd.DataFrame:
         per_pet[lab_rate_column(m.threshold_j)] = rate
         per_pet[lab_rate_column(m.threshold_j, se=True)] = se
         per_pet[m.column] = rate * balls_kg / (rows.pet_mass_g.to_numpy() / 1e3) * rows.time_min.to_numpy() * 60 / 1e3
-        per_pet["collision_log_share"] = np.array([r["collision_log_share"] for r in rates])[rows.dem_condition]
-        per_pet["largest_impact_j"] = np.array([r["largest_impact_j"] for r in rates])[rows.dem_condition]
+    for name in ("collision_log_share", "largest_impact_j"):  # the same under every measure
+        per_pet[name] = np.array([r[name] for r in rates])[rows.dem_condition]
     return rows.assign(**per_pet, lab_dem_dir=[str(folders[i]) for i in rows.dem_condition])
 
 
