@@ -169,7 +169,7 @@ RECORD = {
         "fit_measure": "its dose rate (collision_power_w_per_kg or impact_power_w_per_kg); empty for bpr_line",
         "fit_threshold_j": "its E* (impact measure; empty for all collisions)",
         "fit_cv_rmse_percent": "its leave-one-condition-out cross-validated RMS error",
-        "fit_lab_rate_rel_se": "the lab dose rates' relative standard error (RMS over the lab conditions)",
+        "fit_skipped": "steps of study=yield_fit skipped, each with why (a flat or falling fit reaches no target)",
         "fit_dir": "the fit's cache folder (rows, candidates, predictions, fit.json)",
         "fit_<param>": "a parameter of the chosen model (a_percent, b_percent_per_kj_per_kg; ymax_percent, "
                        "k_per_kj_per_kg, d0_kj_per_kg; slope_percent, intercept_percent)",
@@ -181,11 +181,13 @@ RECORD = {
         "lab_rate_w_per_kg_balls": "the lab DEM's dose rate per kg of balls at the nominal condition",
         "lab_rate_se_w_per_kg_balls": "its standard error",
         "residence_time_se_min": ("standard error of the solved residence time: the mill's dose rate's and the "
-                                  "target dose's (the lab rate's, the fit's) relative errors / (1 + "
-                                  "fixed_point_rate_exponent)"),
+                                  "target dose's (the yield model's, which holds the lab rates') relative errors "
+                                  "/ (1 + fixed_point_rate_exponent)"),
         "fixed_point_iterations": "DEM runs the fixed point took (the root's mill besides, when interpolated)",
         "fixed_point_root": "how the residence time was found: interpolated inside a bracket, or simulated",
-        "fixed_point_rate_exponent": "alpha of the mill's dose rate ~ tau^alpha near the root (the mill-size feedback)",
+        "fixed_point_rate_exponent": ("alpha of the mill's dose rate ~ tau^alpha at the root (the mill-size "
+                                      "feedback), measured on the mills at tau (1 + yield_model.sensitivity_step)^+-1"),
+        "fixed_point_rate_exponent_se": "its standard error, from those two mills' rates'",
         "fixed_point_dose_miss": "relative miss of the final mill's dose against the target dose",
         "fixed_point_history_min": "the residence times tried, in order (space-separated)",
     }),

@@ -352,7 +352,7 @@ class YieldFitConfig:
     thresholds_j: list[float] = field(default_factory=lambda: [0.001, 0.003, 0.01, 0.02], metadata={
         "doc": "E* of the impact-dose measures tried beside all collisions (J)"})
     confidence: float = rng(0.95, 0.0, 1.0, lo_open=True, hi_open=True,
-                            doc="level of the parameters' confidence intervals (normal, from the fit's covariance)")
+                            doc="level of the parameters' confidence intervals (likelihood-ratio: profile likelihood)")
 
     def __post_init__(self):
         check_positive_lists(self, "yield_model.fit", ("thresholds_j",))
@@ -418,6 +418,9 @@ class YieldModelConfig:
                                              doc="null: the BPR line's yield at this BPR")
     tolerance: float = rng(0.01, 0.0, 1.0, lo_open=True, doc="fixed point: relative change of the residence time")
     max_iterations: int = rng(8, 1, None, doc="fixed point: DEM runs at most")
+    sensitivity_step: float = rng(0.2, 0.0, 1.0, lo_open=True,
+                                  doc="fixed point: the mills at tau (1 + step)^-1 and tau (1 + step) around the root "
+                                      "measure the dose rate's exponent and error (two DEM runs)")
     dose_batches: int = rng(10, 2, None, doc="averaging window split into this many batches for standard errors")
     lab: KineticsLabConfig = field(default_factory=KineticsLabConfig, metadata={
         "doc": "the lab experiments behind the line (yield_model.lab.*)"})

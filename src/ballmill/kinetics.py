@@ -11,9 +11,16 @@ Models (Y in %, D the dose in kJ per kg of PET):
                induction dose D0 (Ymax <= 100);
   bpr_line:    Y = s BPR + c, capped (the seed's line: it knows no time, so only where every
                experiment has one milling time).
-Fits are weighted least squares (scipy.optimize.least_squares), each row weighted by 1 / its
-yield error squared, the errors taken as known (absolute): the parameters' covariance is
-(J^T J)^-1 of the weighted residuals, their intervals normal.  A model is chosen, with its dose
+Fits are maximum likelihood with known (absolute) yield errors (scipy.optimize.least_squares on
+the residuals' square roots of -2 log L): a row's yield is a normal draw about the model's
+(uncapped) yield; a row at 0 or 100 % is censored (the yield measured as 0 is any yield at or
+below 0: its likelihood is the normal's tail, Tobin 1958, Econometrica 26:24); and each lab DEM
+run's dose rate carries its own relative error into the doses of its rows, as a factor exp(u)
+on them with u ~ N(0, the rate's relative standard error) fitted beside the parameters (errors in
+variables as a constrained nuisance parameter per run: its rows share it, so a run's error
+weighs as the rows it doses, not as one condition among equals).  The parameters' covariance is
+the model's block of (J^T J)^-1, their intervals normal.  A run with no dose under a measure (no
+impact reaches E*) has no rate error to carry: its rows can only tell the yield at zero dose.  A model is chosen, with its dose
 measure, by leave-one-condition-out cross-validation: each condition's rows predicted by the
 fit to the others; the candidates within one standard error of the lowest CV error, the one with
 the fewest parameters, then the first listed of those whose AIC (chi^2 + 2 k) is within 2 of
@@ -40,7 +47,7 @@ from typing import Protocol
 
 import numpy as np
 import pandas as pd
-from scipy import integrate, optimize, stats
+from scipy import integrate, optimize, special, stats
 
 from .config import ConfigError, RtdConfig
 
@@ -54,18 +61,24 @@ AIC_TIE = 2.0  # AICs closer than this are equal (Burnham & Anderson 2002)
 TAIL = 1e-12  # the RTD's probability left out below when it is averaged over
 TAIL_STDS = 60.0  # and above this many standard deviations past its mean
 TIME_SPAN = 1.5  # the yield-against-time curves run to this multiple of the longest time shown
+PROFILE_STEPS = 30  # points a likelihood-ratio interval's end is looked for at: the normal interval's end,
+PROFILE_GROWTH = 1.5  # then each this much farther
+PROFILE_XTOL = 0.005  # an interval's end to this share of its normal half-width
 
 
-def predict(model: str, params: Sequence[float], dose_kj: np.ndarray, bpr: np.ndarray | None = None) -> np.ndarray:
-    """Y (%) of a model at doses (kJ/kg PET), or BPRs for bpr_line."""
+def predict(model: str, params: Sequence[float], dose_kj: np.ndarray, bpr: np.ndarray | None = None,
+            capped: bool = True) -> np.ndarray:
+    """Y (%) of a model at doses (kJ/kg PET), or BPRs for bpr_line; uncapped, the latent yield a
+    measurement scatters about (the lines run below 0 and above 100 %)."""
+    lo, hi = (0.0, 100.0) if capped else (-np.inf, np.inf)
     if model == "dose_linear":
         a, b = params
-        return np.clip(a + b * np.asarray(dose_kj, float), 0.0, 100.0)
+        return np.clip(a + b * np.asarray(dose_kj, float), lo, hi)
     if model == "saturating":
         ymax, k, d0 = params
         return ymax * -np.expm1(-k * np.maximum(0.0, np.asarray(dose_kj, float) - d0))
     s, c = params
-    return np.clip(s * np.asarray(bpr, float) + c, 0.0, 100.0)
+    return np.clip(s * np.asarray(bpr, float) + c, lo, hi)
 
 
 def inverse_dose_kj(model: str, params: Sequence[float], target_percent: float) -> float:
@@ -87,13 +100,16 @@ def inverse_dose_kj(model: str, params: Sequence[float], target_percent: float) 
 
 @dataclass(frozen=True)
 class Fit:
-    """A model fitted to rows: parameters, their covariance (inf where not identified), chi^2."""
+    """A model fitted to rows: parameters, their covariance (inf where not identified), -2 log L
+    (chi^2 where no row is censored and no dose uncertain), and each lab run's fitted dose shift u."""
 
     model: str
     params: tuple[float, ...]
     cov: tuple[tuple[float, ...], ...]
     chi2: float
     rows: int
+    shifts: tuple[float, ...] = ()
+    intervals: tuple[tuple[float, float], ...] = ()  # likelihood-ratio intervals, where asked for
 
     @property
     def se(self) -> np.ndarray:
@@ -125,36 +141,140 @@ BOUNDS = {"dose_linear": ([-np.inf, -np.inf], [np.inf, np.inf]),
           "bpr_line": ([-np.inf, -np.inf], [np.inf, np.inf])}
 
 
-def fit_model(model: str, x: np.ndarray, y: np.ndarray, sigma: np.ndarray) -> Fit:
-    """Weighted least squares of a model on (x, y) with known errors sigma; x is the dose (kJ/kg
-    PET), or the BPR for bpr_line."""
-    x, y, sigma = (np.asarray(v, float) for v in (x, y, sigma))
+@dataclass(frozen=True)
+class DoseErrors:
+    """The doses' errors: each row's lab DEM run (an index) and each run's dose rate's relative
+    standard error (nan or 0 where the run has no dose, or none is known)."""
 
-    def residuals(p):
-        return (predict(model, p, x, x) - y) / sigma
+    run: np.ndarray
+    rel_se: np.ndarray
 
-    best = None
-    for p0 in starts(model, x, y):
-        lo, hi = BOUNDS[model]
-        p0 = np.clip(p0, np.asarray(lo) + 1e-12, hi)
-        res = optimize.least_squares(residuals, p0, bounds=(lo, hi), x_scale="jac", method="trf")
-        if best is None or res.cost < best.cost:
-            best = res
-    jac = best.jac
+    def carried(self, x: np.ndarray) -> np.ndarray:
+        """The runs whose error is carried: a known error, and a dose in some row."""
+        dosed = np.array([np.any(x[self.run == r] > 0) for r in range(len(self.rel_se))], bool)
+        return np.flatnonzero(dosed & np.isfinite(self.rel_se) & (self.rel_se > 0))
+
+    def subset(self, keep: np.ndarray) -> DoseErrors:
+        return DoseErrors(self.run[keep], self.rel_se)
+
+
+def censored_residuals(latent: np.ndarray, y: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Signed square roots of each row's -2 log L (less its constant): (latent - y) / sigma for a
+    measured yield, sqrt(-2 log Phi(z)) for a yield at 0 (z = -latent / sigma: the yield lies at or
+    below 0) or at 100 % (z = (latent - 100) / sigma)."""
+    out = (latent - y) / sigma
+    for side, z in ((y <= 0.0, -latent / sigma), (y >= 100.0, (latent - 100.0) / sigma)):
+        out = np.where(side, np.sqrt(np.maximum(-2.0 * special.log_ndtr(z), 0.0)), out)
+    return out
+
+
+@dataclass(frozen=True)
+class Likelihood:
+    """-2 log L of a model on (x, y) as least-squares residuals: the rows' (censored_residuals) and
+    each carried lab run's shift u against N(0, its relative error), parameters p = model's + u's."""
+
+    model: str
+    x: np.ndarray
+    y: np.ndarray
+    sigma: np.ndarray
+    slot: np.ndarray  # each row's shift in p[k:], len(rel) (an appended 0) where none is carried
+    rel: np.ndarray
+
+    @classmethod
+    def of(cls, model: str, x, y, sigma, errors: DoseErrors | None) -> Likelihood:
+        x, y, sigma = (np.asarray(v, float) for v in (x, y, sigma))
+        runs = errors.carried(x) if errors is not None and model not in TIME_FREE else np.zeros(0, int)
+        slot = np.full(len(x), len(runs))
+        if len(runs):
+            slot = np.where(np.isin(errors.run, runs), np.searchsorted(runs, errors.run), len(runs))
+        return cls(model, x, y, sigma, slot, errors.rel_se[runs] if len(runs) else np.zeros(0))
+
+    @property
+    def k(self) -> int:
+        return len(PARAMS[self.model])
+
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = BOUNDS[self.model]
+        n = len(self.rel)
+        return np.concatenate([lo, np.full(n, -np.inf)]), np.concatenate([hi, np.full(n, np.inf)])
+
+    def residuals(self, p: np.ndarray) -> np.ndarray:
+        dose = self.x * np.exp(np.append(p[self.k:], 0.0)[self.slot])
+        latent = predict(self.model, p[:self.k], dose, dose, capped=False)
+        return np.concatenate([censored_residuals(latent, self.y, self.sigma), p[self.k:] / self.rel])
+
+    def minimise(self, p0: np.ndarray, fixed: int | None = None):
+        """least_squares from p0, parameter `fixed` held at its value in p0; (p, -2 log L)."""
+        lo, hi = self.bounds
+        free = np.arange(len(p0)) != fixed
+        p0 = np.clip(p0, lo + 1e-12, hi)
+        res = optimize.least_squares(lambda q: self.residuals(np.where(free, np.insert(q, fixed, 0.0), p0)
+                                                             if fixed is not None else q),
+                                     p0[free], bounds=(lo[free], hi[free]), x_scale="jac", method="trf")
+        return (np.insert(res.x, fixed, p0[fixed]) if fixed is not None else res.x), 2 * res.cost, res.jac
+
+
+def fit_model(model: str, x: np.ndarray, y: np.ndarray, sigma: np.ndarray, errors: DoseErrors | None = None,
+              confidence: float | None = None) -> Fit:
+    """Maximum likelihood of a model on (x, y) with known yield errors sigma, yields at 0 or 100 %
+    censored, and (`errors`) each lab run's dose error carried as a shift exp(u) of its rows'
+    doses, u ~ N(0, its relative error); x is the dose (kJ/kg PET), or the BPR for bpr_line.
+    With a confidence, each parameter's likelihood-ratio interval (profile_interval)."""
+    like = Likelihood.of(model, x, y, sigma, errors)
+    k, n = like.k, len(like.rel)
+    best = min((like.minimise(np.concatenate([p0, np.zeros(n)])) for p0 in starts(model, like.x, like.y)),
+               key=lambda r: r[1])
+    p, m2ll, jac = best
     sv = np.linalg.svd(jac, compute_uv=False)
-    if len(sv) < len(best.x) or sv[-1] <= SINGULAR * sv[0]:
-        cov = np.full((len(best.x), len(best.x)), np.inf)
-    else:
-        cov = np.linalg.inv(jac.T @ jac)
-    return Fit(model, tuple(map(float, best.x)), tuple(map(tuple, cov)), float(2 * best.cost), len(y))
+    identified = len(sv) == len(p) and sv[-1] > SINGULAR * sv[0]
+    cov = np.linalg.inv(jac.T @ jac)[:k, :k] if identified else np.full((k, k), np.inf)
+    intervals = ()
+    if confidence is not None:
+        level = stats.chi2.ppf(confidence, 1)
+        intervals = tuple(profile_interval(like, p, m2ll, i, level, math.sqrt(cov[i, i])) if identified
+                          else (-math.inf, math.inf) for i in range(k))
+    return Fit(model, tuple(map(float, p[:k])), tuple(map(tuple, cov)), float(m2ll), len(like.y),
+               tuple(map(float, p[k:])), intervals)
+
+
+def profile_interval(like: Likelihood, best: np.ndarray, m2ll: float, i: int, level: float,
+                     se: float) -> tuple[float, float]:
+    """Parameter i's likelihood-ratio interval: where -2 log L, minimised over the others, rises
+    `level` (the chi^2 quantile of 1 degree of freedom) above its minimum, or its bound (Venzon &
+    Moolgavkar 1988, Appl. Statist. 37:87).  Unlike the covariance's normal interval it follows a
+    skewed likelihood: the induction dose's, which bends where the first rows reach it."""
+    lo_bound, hi_bound = (b[i] for b in like.bounds)
+
+    def excess(v: float) -> float:
+        return like.minimise(np.where(np.arange(len(best)) == i, v, best), fixed=i)[1] - m2ll - level
+
+    ends = []
+    for sign, bound in ((-1, lo_bound), (1, hi_bound)):
+        width = math.sqrt(level) * (se if math.isfinite(se) and se > 0 else max(abs(best[i]), 1.0))
+        inner = best[i]
+        for j in range(PROFILE_STEPS):  # out from the normal interval's end, each step 1.5 times the last
+            outer = best[i] + sign * width * PROFILE_GROWTH**j
+            if sign * (outer - bound) >= 0:
+                outer = bound
+            if excess(outer) > 0:
+                ends.append(optimize.brentq(excess, inner, outer, xtol=PROFILE_XTOL * width))
+                break
+            if outer == bound:
+                ends.append(bound)
+                break
+            inner = outer
+        else:
+            ends.append(sign * math.inf)
+    return ends[0], ends[1]
 
 
 def distinct(x: np.ndarray) -> int:
     return len(np.unique(np.round(np.asarray(x, float), 12)))
 
 
-def cross_validate(model: str, x: np.ndarray, y: np.ndarray, sigma: np.ndarray,
-                   groups: np.ndarray) -> tuple[np.ndarray, str]:
+def cross_validate(model: str, x: np.ndarray, y: np.ndarray, sigma: np.ndarray, groups: np.ndarray,
+                   errors: DoseErrors | None = None) -> tuple[np.ndarray, str]:
     """Leave-one-condition-out predictions of every row (nan throughout, with the reason, where a
     training set has fewer distinct x than the model has parameters)."""
     predicted = np.full(len(y), np.nan)
@@ -163,7 +283,7 @@ def cross_validate(model: str, x: np.ndarray, y: np.ndarray, sigma: np.ndarray,
         if distinct(x[~out]) < len(PARAMS[model]):
             return np.full(len(y), np.nan), (f"leaving condition {g} out leaves {distinct(x[~out])} distinct doses for "
                                              f"{len(PARAMS[model])} parameters")
-        fit = fit_model(model, x[~out], y[~out], sigma[~out])
+        fit = fit_model(model, x[~out], y[~out], sigma[~out], None if errors is None else errors.subset(~out))
         predicted[out] = predict(model, fit.params, x[out], x[out])
     return predicted, ""
 
@@ -217,10 +337,29 @@ class Candidate:
         return self.model if self.measure is None else f"{self.model}, {self.measure.label}"
 
 
-def fit_candidates(rows: pd.DataFrame, models: Sequence[str], thresholds_j: Sequence[float]) -> list[Candidate]:
+def dose_errors(rows: pd.DataFrame, measure: Measure) -> tuple[DoseErrors | None, str]:
+    """Each row's lab DEM run (dem_condition) and each run's relative rate error under a measure,
+    where the rows carry the lab rates (lab_rate_*); and a note naming the runs with no dose."""
+    rate, se = lab_rate_column(measure.threshold_j), lab_rate_column(measure.threshold_j, se=True)
+    if not {"dem_condition", rate, se} <= set(rows.columns):
+        return None, ""
+    runs = rows.drop_duplicates("dem_condition").set_index("dem_condition").sort_index()
+    rel = np.full(int(runs.index.max()) + 1, np.nan)
+    dosed = runs[rate] > 0
+    rel[runs.index[dosed]] = runs[se][dosed] / runs[rate][dosed]
+    dry = list(runs.index[~dosed])
+    note = (f"lab DEM runs {', '.join(map(str, dry))} give no dose under {measure.label}: their rows tell only the "
+            "yield at zero dose" if dry else "")
+    return DoseErrors(rows.dem_condition.to_numpy(int), rel), note
+
+
+def fit_candidates(rows: pd.DataFrame, models: Sequence[str], thresholds_j: Sequence[float],
+                   confidence: float = 0.95) -> list[Candidate]:
     """Every model on every dose measure (the BPR line on the BPR, where the rows share one milling
     time), fitted to all rows and cross-validated by condition.  `rows` holds yield_percent,
-    yield_error_percent, condition, bpr, time_min and the dose columns of the measures."""
+    yield_error_percent, condition, bpr, time_min and the dose columns of the measures; with
+    dem_condition and the lab rate columns, each lab run's rate error is carried (fit_model); each
+    fit's likelihood-ratio intervals at `confidence`."""
     y, sigma, groups = (rows[c].to_numpy(float) for c in ("yield_percent", "yield_error_percent", "condition"))
     out = []
     for model in models:
@@ -236,13 +375,15 @@ def fit_candidates(rows: pd.DataFrame, models: Sequence[str], thresholds_j: Sequ
         if distinct(x) < len(PARAMS[c.model]):
             c.note = f"not identifiable: {distinct(x)} distinct doses for {len(PARAMS[c.model])} parameters"
             continue
-        c.fit = fit_model(c.model, x, y, sigma)
-        c.cv_predicted, c.note = cross_validate(c.model, x, y, sigma, groups)
+        errors, dry = (None, "") if c.measure is None else dose_errors(rows, c.measure)
+        c.fit = fit_model(c.model, x, y, sigma, errors, confidence)
+        c.cv_predicted, c.note = cross_validate(c.model, x, y, sigma, groups, errors)
         if not c.note:
             squared = (c.cv_predicted - y) ** 2
             c.cv_rmse_percent = float(np.sqrt(squared.mean()))
             c.cv_rmse_se_percent = (float(squared.std(ddof=1) / math.sqrt(len(y)) / (2 * c.cv_rmse_percent))
                                     if c.cv_rmse_percent > 0 else 0.0)
+            c.note = dry
     return out
 
 
@@ -261,9 +402,9 @@ def choose(candidates: list[Candidate]) -> Candidate:
     return next(c for c in simplest if c.fit.aic <= lowest + AIC_TIE)
 
 
-def candidates_table(candidates: list[Candidate], chosen: Candidate, confidence: float) -> pd.DataFrame:
-    """One row per candidate: CV error, chi^2, AIC, parameters with their intervals, chosen or not."""
-    z = stats.norm.ppf(0.5 + confidence / 2)
+def candidates_table(candidates: list[Candidate], chosen: Candidate) -> pd.DataFrame:
+    """One row per candidate: CV error, -2 log L, AIC, parameters with their likelihood-ratio
+    intervals (fit_candidates' confidence), chosen or not."""
     best = min((c.cv_rmse_percent for c in candidates if math.isfinite(c.cv_rmse_percent)), default=math.nan)
     rows = []
     for c in candidates:
@@ -276,9 +417,9 @@ def candidates_table(candidates: list[Candidate], chosen: Candidate, confidence:
             row |= {"chi2": c.fit.chi2, "aic": c.fit.aic, "parameters": len(c.fit.params), "identified": c.fit.identified}
             lo, hi = BOUNDS[c.model]
             bound = [n for n, v, a, b in zip(PARAMS[c.model], c.fit.params, lo, hi) if np.isclose(v, a) or np.isclose(v, b)]
-            row["note"] = c.note or (f"at its bound: {', '.join(bound)} (its interval is approximate)" if bound else "")
-            for name, value, se in zip(PARAMS[c.model], c.fit.params, c.fit.se):
-                row |= {name: value, f"{name}_se": se, f"{name}_lo": value - z * se, f"{name}_hi": value + z * se}
+            row["note"] = c.note or (f"at its bound: {', '.join(bound)}" if bound else "")
+            for name, value, se, (lo_end, hi_end) in zip(PARAMS[c.model], c.fit.params, c.fit.se, c.fit.intervals):
+                row |= {name: value, f"{name}_se": se, f"{name}_lo": lo_end, f"{name}_hi": hi_end}
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -349,15 +490,14 @@ class YieldCurve(Protocol):
 @dataclass(frozen=True)
 class FittedCurve:
     """A fit's chosen model as a design uses it: yield against the dose per kg of PET (J/kg) on
-    its dose measure (a dose.py rate, above threshold_j where it has one), with what its target
-    dose's error needs: the parameters' covariance and the lab dose rates' relative error."""
+    its dose measure (a dose.py rate, above threshold_j where it has one), with the parameters'
+    covariance (which holds the lab dose rates' errors: fit_model carries them)."""
 
     model: str
     rate: str
     threshold_j: float | None
     params: tuple[float, ...]
     cov: tuple[tuple[float, ...], ...]
-    lab_rate_rel_se: float
     time_min: float  # the experiments' milling time where they share one (the BPR line's time)
     cv_rmse_percent: float
     folder: str
@@ -367,7 +507,7 @@ class FittedCurve:
         """The chosen model of a fit's folder (fit.json)."""
         meta = json.loads((Path(folder) / "fit.json").read_text())
         return cls(meta["model"], meta["rate"], meta["threshold_j"], tuple(meta["params"]),
-                   tuple(map(tuple, meta["cov"])), meta["lab_rate_rel_se"],
+                   tuple(map(tuple, meta["cov"])),
                    math.nan if meta["time_min"] is None else meta["time_min"], meta["cv_rmse_percent"], str(folder))
 
     @property
@@ -392,20 +532,20 @@ class FittedCurve:
         return [1e3 * self.params[2]] if self.model == "saturating" else []
 
     def dose_rel_se(self, target_percent: float) -> float:
-        """Relative standard error of the target dose: the parameters' (delta method) and the lab
-        dose rates' (every experiment's dose scales with them)."""
+        """Relative standard error of the target dose: the parameters' (delta method; the lab dose
+        rates' errors are in their covariance)."""
         p = np.asarray(self.params)
         steps = 1e-6 * np.maximum(np.abs(p), 1e-6)
         grad = np.array([(inverse_dose_kj(self.model, p + np.eye(len(p))[i] * steps[i], target_percent)
                           - inverse_dose_kj(self.model, p - np.eye(len(p))[i] * steps[i], target_percent))
                          / (2 * steps[i]) for i in range(len(p))])
         var = float(grad @ np.asarray(self.cov) @ grad)
-        return math.hypot(math.sqrt(var) / inverse_dose_kj(self.model, p, target_percent), self.lab_rate_rel_se)
+        return math.sqrt(var) / inverse_dose_kj(self.model, p, target_percent)
 
     def as_record(self) -> dict:
         se = np.sqrt(np.diag(np.asarray(self.cov)))
         return {"fit_model": self.model, "fit_measure": self.rate, "fit_threshold_j": self.threshold_j,
-                "fit_cv_rmse_percent": self.cv_rmse_percent, "fit_lab_rate_rel_se": self.lab_rate_rel_se,
+                "fit_cv_rmse_percent": self.cv_rmse_percent,
                 "fit_dir": self.folder,
                 **{f"fit_{n}": v for n, v in zip(PARAMS[self.model], self.params)},
                 **{f"fit_{n}_se": float(e) for n, e in zip(PARAMS[self.model], se)}}

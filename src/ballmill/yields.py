@@ -130,18 +130,20 @@ def fit_dose_line(measure: str, lab_rate_w_per_kg_balls: float, lab_rate_se: flo
 class FixedPoint:
     """The residence time that gives the target dose in the mill it sizes: the root interpolated
     inside the bracket of the mills simulated (or, unbracketed, the one simulated within the
-    tolerance), how it was found, and its standard error."""
+    tolerance), how it was found, and its standard error from the measured mill-size feedback."""
 
     residence_time_min: float
     iterations: int
     history_min: list[float] = field(default_factory=list)
     se_min: float = 0.0
     root: str = ""
-    rate_exponent: float = 0.0  # alpha of rate ~ tau^alpha near the root (the mill-size feedback)
+    rate_exponent: float = 0.0  # alpha of rate ~ tau^alpha at the root (the mill-size feedback)
+    rate_exponent_se: float = 0.0
 
     def as_record(self) -> dict:
         return {"residence_time_se_min": self.se_min, "fixed_point_iterations": self.iterations,
                 "fixed_point_root": self.root, "fixed_point_rate_exponent": self.rate_exponent,
+                "fixed_point_rate_exponent_se": self.rate_exponent_se,
                 "fixed_point_history_min": " ".join(f"{t:.6g}" for t in self.history_min)}
 
 
@@ -149,7 +151,8 @@ MIN_FEEDBACK = -0.9  # alpha below it (a rate falling almost as fast as tau grow
 
 
 def solve_residence_time(start_min: float, dose_target_j_per_kg: float, rate_at: Callable[[float], tuple[float, float]],
-                         tolerance: float, max_iterations: int, target_rel_se: float = 0.0) -> FixedPoint:
+                         tolerance: float, max_iterations: int, target_rel_se: float = 0.0,
+                         sensitivity_step: float = 0.2) -> FixedPoint:
     """tau = D / r(tau): r(tau) (W/kg PET, with its standard error) is the DEM of the mill that tau
     sizes.  On log tau: a plain step first, then secant steps (each at most threefold up or down,
     so that a far first guess does not ask for a huge mill), and once the root is bracketed,
@@ -159,14 +162,14 @@ def solve_residence_time(start_min: float, dose_target_j_per_kg: float, rate_at:
     than its rate's noise).  The answer is the root interpolated between the bracket's ends, else
     the simulated tau within the tolerance.  Its standard error: with r ~ tau^alpha near the root,
     tau ~ (D / r)^(1 / (1 + alpha)), so the relative errors of the mill's rate and of the target
-    dose (`target_rel_se`: the lab's) add in quadrature and shrink by 1 + alpha."""
+    dose (`target_rel_se`: the lab's) add in quadrature and shrink by 1 + alpha; alpha and the
+    rate's error are measured on the mills at tau (1 + sensitivity_step)^-1 and tau (1 +
+    sensitivity_step) (a central difference on log axes), the same two mills whatever the path
+    that found the root."""
     tried: list[tuple[float, float, float, float]] = []  # (log tau, log(next tau / tau), relative se, tau)
     for k in range(1, max_iterations + 1):
         tau = start_min if not tried else math.exp(next_log_tau(tried))
-        rate, se = rate_at(tau)
-        if not rate > 0:
-            raise NotConverged(f"yield_model: the mill at {tau:.4g} min gives no dose (rate {rate} W/kg PET): no "
-                               "collision there reaches the threshold; lower yield_model.impact_threshold_j")
+        rate, se = checked_rate(rate_at, tau)
         tried.append((math.log(tau), math.log(dose_target_j_per_kg / dose_j_per_kg(rate, tau)), se / rate, tau))
         above = [t for t in tried if t[1] > 0]
         below = [t for t in tried if t[1] <= 0]
@@ -176,34 +179,43 @@ def solve_residence_time(start_min: float, dose_target_j_per_kg: float, rate_at:
         else:
             narrow = False
         if abs(math.expm1(tried[-1][1])) < tolerance or narrow:
-            return root_of(tried, k, target_rel_se)
+            tau, how = root_of(tried)
+            alpha, alpha_se, rel = rate_exponent(tau, rate_at, sensitivity_step)
+            se = tau * math.hypot(rel, target_rel_se) / (1.0 + max(alpha, MIN_FEEDBACK))
+            return FixedPoint(tau, k, [t[3] for t in tried], se, how, alpha, alpha_se)
     raise NotConverged(f"yield_model: the residence time did not settle in {max_iterations} DEM runs (min: "
                        f"{', '.join(f'{t[3]:.4g}' for t in tried)}); raise yield_model.max_iterations or "
                        "yield_model.tolerance")
 
 
-def root_of(tried: list[tuple[float, float, float, float]], iterations: int, target_rel_se: float) -> FixedPoint:
-    """The fixed point from the mills tried: interpolated inside the bracket, else the closest."""
+def checked_rate(rate_at: Callable[[float], tuple[float, float]], tau: float) -> tuple[float, float]:
+    """The mill's dose rate and its standard error at tau; NotConverged where it gives no dose."""
+    rate, se = rate_at(tau)
+    if not rate > 0:
+        raise NotConverged(f"yield_model: the mill at {tau:.4g} min gives no dose (rate {rate} W/kg PET): no "
+                           "collision there reaches the threshold; lower yield_model.impact_threshold_j")
+    return rate, se
+
+
+def rate_exponent(tau: float, rate_at: Callable[[float], tuple[float, float]], step: float) -> tuple[float, float, float]:
+    """alpha = d log r / d log tau at tau, by a central difference over the mills at tau / (1 + step)
+    and tau (1 + step); its standard error from theirs; the rate's relative error there (their RMS)."""
+    h = math.log1p(step)
+    (r_lo, se_lo), (r_hi, se_hi) = (checked_rate(rate_at, tau * math.exp(sign * h)) for sign in (-1, 1))
+    rel_lo, rel_hi = se_lo / r_lo, se_hi / r_hi
+    return (math.log(r_hi / r_lo) / (2 * h), math.hypot(rel_lo, rel_hi) / (2 * h),
+            math.sqrt((rel_lo**2 + rel_hi**2) / 2))
+
+
+def root_of(tried: list[tuple[float, float, float, float]]) -> tuple[float, str]:
+    """The fixed point from the mills tried, and how: interpolated inside the bracket, else the
+    closest simulated."""
     above = [t for t in tried if t[1] > 0]
     below = [t for t in tried if t[1] <= 0]
-    history = [t[3] for t in tried]
     if above and below:
-        (x0, f0, s0, t0), (x1, f1, s1, t1) = max(above), min(below)
-        x = x0 + f0 / (f0 - f1) * (x1 - x0)
-        # f = log D - log r - log tau: alpha = d log r / d log tau = -1 - df / dx
-        alpha, rel = -1.0 - (f1 - f0) / (x1 - x0), max(s0, s1)
-        how = f"interpolated between {t0:.4g} and {t1:.4g} min"
-    else:
-        best = min(tried, key=lambda t: abs(t[1]))
-        x, rel = best[0], best[2]
-        near = sorted(tried, key=lambda t: abs(t[0] - best[0]))[:2]
-        known = len(near) == 2 and near[1][0] != near[0][0]
-        alpha = -1.0 - (near[1][1] - near[0][1]) / (near[1][0] - near[0][0]) if known else 0.0
-        how = ("simulated, within the tolerance (not bracketed)" if known
-               else "simulated, within the tolerance at the first run (the mill-size feedback unknown: taken as none)")
-    alpha = max(alpha, MIN_FEEDBACK)
-    tau = math.exp(x)
-    return FixedPoint(tau, iterations, history, tau * math.hypot(rel, target_rel_se) / (1.0 + alpha), how, alpha)
+        (x0, f0, _, t0), (x1, f1, _, t1) = max(above), min(below)
+        return math.exp(x0 + f0 / (f0 - f1) * (x1 - x0)), f"interpolated between {t0:.4g} and {t1:.4g} min"
+    return min(tried, key=lambda t: abs(t[1]))[3], "simulated, within the tolerance (not bracketed)"
 
 
 def next_log_tau(tried: list[tuple[float, float, float, float]]) -> float:

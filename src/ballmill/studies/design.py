@@ -193,7 +193,8 @@ def solve_design(s: Scenario, design, y: YieldPlan):
         return rates[rate], rates[f"{rate}_se"]
 
     fp = solve_residence_time(design.residence_time_min, y.target_dose_j_per_kg, rate_at, s.yield_model.tolerance,
-                              s.yield_model.max_iterations, y.curve.dose_rel_se(y.target))
+                              s.yield_model.max_iterations, y.curve.dose_rel_se(y.target),
+                              s.yield_model.sensitivity_step)
     log.info("residence time %.4g min (%s) after %d mill evaluations (%s): %s", fp.residence_time_min, fp.root,
              fp.iterations, s.dem.mode, ", ".join(f"{t:.4g}" for t in fp.history_min))
     return fp
@@ -205,11 +206,12 @@ def time_curves(s: Scenario, y: YieldPlan, rec: dict) -> tuple[pd.DataFrame, pd.
     against the mean residence time); the experiments as points."""
     curve, rtd = y.curve, s.yield_model.rtd
     rate = rec[f"{curve.rate.replace('_per_kg', '_per_kg_pet')}"]
-    until = TIME_SPAN * max(rec["residence_time_min"], s.yield_model.lab_time_min)
     if s.yield_model.rule == "fitted":
         rows = pd.read_csv(fit_folder(s, checked_experiments(s)) / "rows.csv")
+        until = TIME_SPAN * max(rec["residence_time_min"], rows.time_min.max())  # past the last experiment
         lab, points = lab_time_curves(curve, rows, until), rows
     else:
+        until = TIME_SPAN * max(rec["residence_time_min"], s.yield_model.lab_time_min)
         ratio = rec["naoh_feed_kg_per_h"] / rec["pet_feed_kg_per_h"]
         lab_rate = curve.lab_rate_w_per_kg_balls * s.scaleup.bpr * (1 + ratio)  # W per kg of PET at this BPR
         t = np.linspace(0.0, until, 200)

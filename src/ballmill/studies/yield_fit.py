@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..config import ConfigError
 from ..experiments import Experiments, read_experiments
 from ..files import exclusive, read_json, write_atomic, write_json
 from ..kinetics import (
@@ -41,6 +42,7 @@ from .mechanics import check_machine
 from .plan import Plan
 
 log = logging.getLogger(__name__)
+FIT_METHOD = 2  # the fit's method, in its cache key: 2 carries the lab rates' errors and censors yields at 0 and 100 %
 
 
 def lab_conditions(exps: Experiments) -> list[LabCondition]:
@@ -52,7 +54,7 @@ def lab_conditions(exps: Experiments) -> list[LabCondition]:
 
 
 def fit_key(s: Scenario, exps: Experiments) -> str:
-    payload = {"experiments": exps.digest, "lab": [condition_key(c, s) for c in lab_conditions(exps)],
+    payload = {"method": FIT_METHOD, "experiments": exps.digest, "lab": [condition_key(c, s) for c in lab_conditions(exps)],
                "fit": asdict(s.yield_model.fit), "batches": s.yield_model.dose_batches}
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -97,9 +99,9 @@ def run_fit(s: Scenario, exps: Experiments) -> Path:
             started = time.perf_counter()
             rows = doses(s, exps, simulate_conditions(lab_conditions(exps), s))
             fit = s.yield_model.fit
-            candidates = fit_candidates(rows, fit.models, fit.thresholds_j)
+            candidates = fit_candidates(rows, fit.models, fit.thresholds_j, fit.confidence)
             chosen = choose(candidates)
-            table = candidates_table(candidates, chosen, fit.confidence)
+            table = candidates_table(candidates, chosen)
             predictions = pd.concat([rows[["experiment", "condition", "time_min", "yield_percent",
                                            "yield_error_percent", "bpr"]].assign(
                 candidate=c.name, dose_kj_per_kg_pet=np.nan if c.measure is None else rows[c.measure.column],
@@ -108,13 +110,15 @@ def run_fit(s: Scenario, exps: Experiments) -> Path:
             for name, frame in (("rows", rows), ("candidates", table), ("predictions", predictions)):
                 write_atomic(folder / f"{name}.csv", lambda tmp, f=frame: f.to_csv(tmp, index=False))
             threshold = None if chosen.measure is None else chosen.measure.threshold_j
-            rel = (rows[lab_rate_column(threshold, se=True)] / rows[lab_rate_column(threshold)]).drop_duplicates()
+            runs = rows.drop_duplicates("dem_condition").sort_values("dem_condition")
+            rate, se = runs[lab_rate_column(threshold)], runs[lab_rate_column(threshold, se=True)]
             write_json(folder / "fit.json", {
                 "key": folder.name, "experiments": str(exps.path), "experiments_digest": exps.digest,
                 "model": chosen.model, "rate": None if chosen.measure is None else chosen.measure.rate,
                 "threshold_j": None if chosen.measure is None else chosen.measure.threshold_j,
                 "params": chosen.fit.params, "cov": chosen.fit.cov, "cv_rmse_percent": chosen.cv_rmse_percent,
-                "lab_rate_rel_se": float(np.sqrt(np.mean(rel**2))) if chosen.measure else 0.0,
+                "lab_rate_rel_se": [float(e / r) if r > 0 else None for r, e in zip(rate, se)],
+                "lab_shifts": chosen.fit.shifts,
                 "time_min": float(rows.time_min.iloc[0]) if rows.time_min.nunique() == 1 else None,
                 "within_one_se": int(table.within_one_se.sum()), "fit": asdict(fit)})
             log.info("fit done in %.0f s: %s", time.perf_counter() - started, chosen.name)
@@ -153,13 +157,18 @@ def plan_yield_fit(s: Scenario) -> Plan:
         mine = predictions[predictions.candidate == chosen.candidate]
         save_figure(plot_parity(predictions, candidates), out_dir / "yield_fit_parity")
         save_figure(plot_residuals(mine), out_dir / "yield_fit_residuals")
+        skipped = []
         if not curve.time_free:
             curves = lab_time_curves(curve, rows, TIME_SPAN * rows.time_min.max())
             save_figure(plot_yield_time(curves, rows), out_dir / "yield_fit_time")
-            rtd_table(curve, target, s.yield_model.rtd).to_csv(out_dir / "yield_fit_rtd.csv", index=False)
+            try:
+                rtd_table(curve, target, s.yield_model.rtd).to_csv(out_dir / "yield_fit_rtd.csv", index=False)
+            except ConfigError as exc:  # a flat or falling fit: no dose reaches the target
+                skipped.append(f"yield_fit_rtd.csv (what each RTD costs at the target): {exc}")
+                log.warning("yield_fit: skipped %s", skipped[-1])
         return curve.as_record() | {"fit_candidate": chosen.candidate,
                                     "fit_candidates_within_one_se": int(candidates.within_one_se.sum()),
-                                    "target_yield_percent": target}
+                                    "target_yield_percent": target, "fit_skipped": "; ".join(skipped)}
 
     return Plan({"experiments": str(exps.path), "experiments_digest": exps.digest, "experiments_rows": len(exps.rows),
                  "experiments_conditions": int(exps.rows.condition.nunique()),
