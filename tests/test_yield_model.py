@@ -264,6 +264,26 @@ def test_the_fit_of_the_shipped_table_restates_the_seeds_line_and_draws_its_figu
     assert undescribed("record", record) == []
 
 
+def test_a_fit_that_no_dose_lifts_to_the_target_leaves_the_study_green_and_says_what_it_skipped(fitted, tmp_path,
+                                                                                                  caplog):
+    """The shipped table's lab condition (cached), its yields falling from 52 to 48 % as the dose
+    grows, milled 20 and 40 min (so the BPR line, which knows no time, is not a candidate): the fit
+    and its figures are written, the RTD table is not, and the record and the log say why."""
+    rows = pd.read_csv(Path(__file__).parents[1] / "src/ballmill/data/yield_experiments.csv")
+    table = tmp_path / "flat.csv"
+    rows.assign(yield_percent=[52.0, 51.0, 50.0, 49.0, 48.0], time_min=[20.0, 40.0, 20.0, 40.0, 20.0]).to_csv(
+        table, index=False)
+    out = tmp_path / "run"
+    with caplog.at_level(logging.WARNING, logger="ballmill.studies.yield_fit"):
+        record = run_scenario(compose("config", ["study=yield_fit", f"yield_model.experiments={table}",
+                                                 f"cache_dir={fitted[0]}", *LAB]), out)
+    assert record["fit_skipped"].startswith("yield_fit_rtd.csv (what each RTD costs at the target): yield_model.")
+    assert "target_yield_percent=74.87" in record["fit_skipped"] and "skipped yield_fit_rtd.csv" in caplog.text
+    assert not (out / "yield_fit_rtd.csv").exists()
+    for figure in ("yield_fit_parity", "yield_fit_residuals", "yield_fit_time"):
+        assert (out / f"{figure}.png").exists()
+
+
 def test_a_fitted_design_averages_its_yield_over_the_rtd_and_reuses_the_fit(fitted, tmp_path, caplog):
     cache = fitted[0]
     overrides = ["yield_model=fitted", "yield_model.mode=fixed_time", "yield_model.rtd.kind=tanks_in_series",

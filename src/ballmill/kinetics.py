@@ -63,7 +63,7 @@ TAIL_STDS = 60.0  # and above this many standard deviations past its mean
 TIME_SPAN = 1.5  # the yield-against-time curves run to this multiple of the longest time shown
 PROFILE_STEPS = 30  # points a likelihood-ratio interval's end is looked for at: the normal interval's end,
 PROFILE_GROWTH = 1.5  # then each this much farther
-PROFILE_XTOL = 0.005  # an interval's end to this share of its normal half-width
+PROFILE_XTOL = 0.02  # an interval's end to this share of its normal half-width
 
 
 def predict(model: str, params: Sequence[float], dose_kj: np.ndarray, bpr: np.ndarray | None = None,
