@@ -15,13 +15,16 @@ from helpers import run
 from scipy.optimize import brentq
 from test_contact_physics import STEEL, two_spheres
 
+from ballmill import yield_rules
 from ballmill.columns import undescribed
 from ballmill.config import ConfigError, RtdConfig, YieldModelConfig
 from ballmill.dose import dose_j_per_kg, dose_rates
 from ballmill.kinetics import FittedCurve, curve_mean_yield
+from ballmill.plots import rule_label
 from ballmill.run import run as run_scenario
 from ballmill.scenario import compose, load
 from ballmill.studies import plan
+from ballmill.yield_rules import DoseLineRule
 from ballmill.yields import (
     NotConverged,
     bpr_line_yield,
@@ -210,6 +213,24 @@ def test_energy_rule_design_converges_and_records_its_fixed_point(calibrated, tm
                          tmp_path)
     assert fixed["residence_time_min"] == 20.0 and "fixed_point_iterations" not in fixed
     assert 0 <= fixed["yield_percent"] < record["yield_percent"]  # the seed's mill doses less than the lab
+
+
+def test_a_new_yield_rule_is_one_registry_entry(calibrated, tmp_path, monkeypatch):
+    """docs/how-to/extend.md's worked example: yield from the count of impacts of at least E* per kg
+    of PET, the calibrated dose line on dose.py's impact frequency, registered by name alone (its
+    conf/yield_model file only sets `rule`): a fixed-time design's yield is the line at the mill's
+    count, the rule is labelled with its E*, and dem=surrogate refuses it (no impact spectrum)."""
+    monkeypatch.setitem(yield_rules.RULES, "impact_count", DoseLineRule("impact_count", "impact_frequency_per_s_per_kg"))
+    overrides = ["yield_model.rule=impact_count", "yield_model.mode=fixed_time", f"cache_dir={calibrated[0]}", *LAB,
+                 *DRUM]
+    record = run_scenario(compose("config", overrides), tmp_path)
+    count = record["impact_frequency_per_s_per_kg_pet"] * record["residence_time_min"] * 60  # impacts per kg PET
+    b = record["yield_b_percent_per_kj_per_kg"] / 1e3  # % per impact per kg PET
+    assert record["yield_measure"] == "impact_frequency_per_s_per_kg" and count > 0
+    assert record["yield_percent"] == pytest.approx(min(100.0, max(0.0, record["yield_a_percent"] + b * count)))
+    assert rule_label(record) == "impact_count 10 mJ"
+    with pytest.raises(ConfigError, match=r"dem=surrogate: yield_model.rule=impact_count needs the impact spectrum"):
+        plan(load(compose("config", [*overrides, "dem=surrogate"])))
 
 
 def test_an_energy_rule_runs_its_missing_lab_calibration_first_and_once(tmp_path, caplog):

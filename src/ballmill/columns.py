@@ -273,8 +273,14 @@ RECORD = {
 PREFIXES = {
     "paper_dem_": "the paper's mill as the DEM confirms it: ", "optimum_dem_": "the optimum as the DEM confirms it: ",
     "paper_": "the paper's mill, by the surrogate: ", "optimum_": "the cheapest mill, by the surrogate: ",
-    "specific_energy_": "the specific-energy rule's line: ", "impact_threshold_": "the impact-threshold rule's line: ",
 }
+
+
+def rule_prefixes() -> dict[str, str]:
+    """study=yield_calibration's columns of each dose-line rule: <rule>_<yield rules column>."""
+    from . import yield_rules  # the registry's modules import the engine: read when a record is described
+
+    return {f"{r.name}_": f"the {r.name} rule's line: " for r in yield_rules.dose_lines()}
 
 TABLES = {
     "record": {name: doc for _, columns in RECORD.values() for name, doc in columns.items()},
@@ -339,7 +345,7 @@ def describe(table: str, name: str) -> str | None:
     for key, doc in vocabulary.items():
         if "<" in key and pattern(key).match(name):
             return doc
-    for prefix, meaning in PREFIXES.items() if table == "record" else ():
+    for prefix, meaning in (PREFIXES | rule_prefixes()).items() if table == "record" else ():
         inner = describe(table, name[len(prefix):]) if name.startswith(prefix) else None
         if inner:
             return meaning + inner

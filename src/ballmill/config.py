@@ -386,6 +386,13 @@ class RtdConfig:
             _check_field(f"yield_model.rtd.sensitivity_tanks[{i}]", n, {"range": (1.0, None, False, False)})
 
 
+def yield_rule_names() -> tuple[str, ...]:
+    """The registered yield rules (yield_rules.RULES)."""
+    from . import yield_rules  # the registry's modules import this one: read when a config is checked
+
+    return tuple(yield_rules.RULES)
+
+
 @dataclass
 class YieldModelConfig:
     """TPA yield of the mill: the seed's BPR line, yield from the collision dose per kg of PET
@@ -393,7 +400,7 @@ class YieldModelConfig:
     (docs/explanation/yield.md)."""
 
     rule: str = field(default="bpr_line", metadata={
-        "choices": ("bpr_line", "specific_energy", "impact_threshold", "fitted"),
+        "choices": yield_rule_names,
         "doc": "bpr_line: yield from the BPR; specific_energy: from the collision dose; impact_threshold: from the "
                "dose of impacts of at least impact_threshold_j; fitted: the model and dose measure the experiments "
                "table chooses (study=yield_fit)"})
@@ -788,10 +795,16 @@ def span(lo, hi, lo_open: bool, hi_open: bool) -> str:
     return f"{left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
 
 
+def choices(meta) -> tuple:
+    """A field's choices: a tuple, or a function giving one (a registry, read when it is asked)."""
+    c = meta["choices"]
+    return tuple(c()) if callable(c) else c
+
+
 def allowed(meta) -> str:
     """What a field's metadata allows: 'one of a, b', an interval, or '' (anything of its type)."""
     if "choices" in meta:
-        return "one of " + ", ".join(map(str, meta["choices"]))
+        return "one of " + ", ".join(map(str, choices(meta)))
     return span(*meta["range"]) if "range" in meta else ""
 
 
@@ -811,8 +824,8 @@ def walk(schema: type, prefix: str = ""):
 
 
 def _check_field(path: str, value, meta) -> None:
-    if "choices" in meta and value not in meta["choices"]:
-        raise ConfigError(f"{path}={value!r} is not one of {list(meta['choices'])}")
+    if "choices" in meta and value not in choices(meta):
+        raise ConfigError(f"{path}={value!r} is not one of {list(choices(meta))}")
     if isinstance(value, float) and not math.isfinite(value):
         raise ConfigError(f"{path}={value} is not a finite number")
     if "range" not in meta or value is None:

@@ -23,6 +23,11 @@ MEASURES = ("collision_power_w_per_kg", "collision_frequency_per_s_per_kg", "imp
             "impact_frequency_per_s_per_kg")
 
 
+def above_threshold(measure: str) -> bool:
+    """Whether a measure counts only the impacts of at least E* (its spectrum's, not the power's)."""
+    return measure.startswith("impact_")
+
+
 def dose_rates(collisions: pd.DataFrame, after_s: float, until_s: float, mass_kg: float, threshold_j: float,
                batches: int = 10, energy: pd.DataFrame | None = None) -> dict:
     """Dose rates per kg of `mass_kg` over collisions starting in (after_s, until_s], each with

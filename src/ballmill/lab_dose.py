@@ -23,11 +23,11 @@ import numpy as np
 import pandas as pd
 
 from .config import MM400_GEOMETRY, ConfigError, KineticsLabConfig, MM400Config, SimConfig
-from .dose import MEASURES, dose_rates
+from .dose import MEASURES, above_threshold, dose_rates
 from .files import exclusive, read_json, write_atomic, write_json
 from .lab import Condition, jar_ball_mass_kg, jar_inner_length_m, jar_volume_ml, run_mm400, wall_interaction
 from .scenario import Scenario
-from .yields import MEASURE, DoseLine, fit_dose_line
+from .yields import DoseLine, fit_dose_line
 
 log = logging.getLogger(__name__)
 BALLS = (1, 2)  # the MM400 jar holds one or two balls of these sizes
@@ -212,14 +212,13 @@ def lab_rates(s: Scenario, threshold_j: float) -> pd.DataFrame:
     return pd.DataFrame(rows).assign(calibration_dir=str(folder))
 
 
-def lab_dose_line(s: Scenario, naoh_kg_per_kg_pet: float) -> DoseLine:
-    """The energy rule's dose line, fitted at the nominal lab condition, the lab's powder at the
-    mill's NaOH:PET ratio."""
+def lab_dose_line(s: Scenario, naoh_kg_per_kg_pet: float, measure: str) -> DoseLine:
+    """A dose rule's line on one of dose.py's rates (`measure`), fitted at the nominal lab
+    condition, the lab's powder at the mill's NaOH:PET ratio."""
     cfg = s.yield_model
     nominal = lab_rates(s, cfg.impact_threshold_j).query("nominal").iloc[0]
-    if cfg.rule == "impact_threshold" and cfg.impact_threshold_j > nominal.largest_impact_j:
+    if above_threshold(measure) and cfg.impact_threshold_j > nominal.largest_impact_j:
         raise ConfigError(f"yield_model.impact_threshold_j={cfg.impact_threshold_j} J is above every impact of the lab "
                           f"calibration (largest {nominal.largest_impact_j:.3g} J): give at most that")
-    measure = MEASURE[cfg.rule]
     return fit_dose_line(measure, float(nominal[measure]), float(nominal[f"{measure}_se"]), cfg, naoh_kg_per_kg_pet)
 

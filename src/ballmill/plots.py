@@ -434,5 +434,6 @@ def with_rule_labels(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def rule_label(rec: dict) -> str:
-    rule = rec.get("yield_rule", "bpr_line")
-    return f"{rule} {1e3 * rec['impact_threshold_j']:g} mJ" if rule == "impact_threshold" else rule
+    from . import yield_rules  # the rules' modules import the studies, which import this one
+
+    return yield_rules.rule_of(rec.get("yield_rule", "bpr_line")).label(rec)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .config import ConfigError, YieldModelConfig
-from .dose import dose_j_per_kg
+from .dose import above_threshold, dose_j_per_kg
 from .scaleup import stoichiometric_naoh_kg_per_h
 
 
@@ -30,7 +30,6 @@ class NotConverged(RuntimeError):
     """The residence time's fixed point failed (no dose, or no settling within the iterations)."""
 
 
-MEASURE = {"specific_energy": "collision_power_w_per_kg", "impact_threshold": "impact_power_w_per_kg"}
 MAX_STEP = math.log(3.0)  # the residence time changes at most threefold per DEM run (bounds the mills tried)
 LINE_POINTS = 27  # BPR points of the line the dose fit uses (half-unit steps over 10-23)
 
@@ -123,7 +122,7 @@ def fit_dose_line(measure: str, lab_rate_w_per_kg_balls: float, lab_rate_se: flo
     b, a = np.polyfit(dose, y[keep], 1)
     return DoseLine(measure, float(a), float(b), float(b * lab_rate_se / lab_rate_w_per_kg_balls),
                     lab_rate_w_per_kg_balls, lab_rate_se,
-                    cfg.impact_threshold_j if measure == MEASURE["impact_threshold"] else None)
+                    cfg.impact_threshold_j if above_threshold(measure) else None)
 
 
 @dataclass

@@ -7,6 +7,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from .. import yield_rules
 from ..config import ConfigError
 from ..scaleup import design_mill
 from ..scenario import Scenario
@@ -27,7 +28,7 @@ def plan_cheapest_mill(s: Scenario) -> Plan:
     then both mills confirmed by the DEM at the surrogate's residence time (optimiser.confirm),
     with the surrogate's error on each."""
     model = s.yield_model
-    if model.rule != "bpr_line" and model.mode == "fixed_time":
+    if yield_rules.rule_of(model.rule).dose and model.mode == "fixed_time":
         raise ConfigError("study=cheapest_mill: yield_model.mode=fixed_time gives no target to reach; "
                           "use yield_model.mode=target_yield")
     fast = replace(s, dem=replace(s.dem, mode="surrogate"))

@@ -11,19 +11,19 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .. import yield_rules
 from ..config import ConfigError
-from ..dose import dose_j_per_kg, with_basis
+from ..dose import above_threshold, dose_j_per_kg, with_basis
 from ..drum import drum_spec
 from ..economics import bond_rowland_power_w, evaluate, margin_usd_per_t_tpa, purchase_cost_usd
 from ..kinetics import YieldCurve, curve_dose_for, curve_mean_yield
-from ..lab_dose import calibrated, calibration_folder, check_conditions, lab_dose_line, nominal_condition
 from ..plots import plot_yield_time, save_figure
 from ..scaleup import design_mill
 from ..scenario import Scenario
 from ..yields import bpr_line_yield, line_yield, solve_residence_time
 from .mechanics import check_dem_mode, check_numerics, check_window, mechanics, mill_drum
 from .plan import Plan
-from .yield_fit import TIME_SPAN, checked_experiments, fit_folder, fitted_curve, is_fitted, lab_time_curves
+from .yield_fit import TIME_SPAN
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +49,7 @@ class YieldPlan:
     def mill_scenario(self, s: Scenario) -> Scenario:
         """The scenario the mill's DEM runs under: an impact measure's at physical stiffness, so
         that lab and mill spectra are compared at one stiffness (yield_model.mill_stiffness)."""
-        impacts = self.curve is not None and self.curve.rate == "impact_power_w_per_kg"
+        impacts = self.curve is not None and above_threshold(self.curve.rate)
         if not impacts or s.yield_model.mill_stiffness == "sim":
             return s
         return replace(s, sim=replace(s.sim, shear_modulus_scale=1.0))
@@ -78,7 +78,7 @@ class YieldPlan:
         if not self.deferred:
             return {}
         self.curve = self.source()
-        if s.dem.mode == "surrogate" and self.curve.rate == "impact_power_w_per_kg":
+        if s.dem.mode == "surrogate" and above_threshold(self.curve.rate):
             raise ConfigError(f"dem=surrogate: the yield's dose measure is impacts of at least {self.threshold_j(s)} J, "
                               "whose spectrum the surrogate does not predict; use dem=full")
         if self.curve.time_free:
@@ -95,23 +95,16 @@ def yield_plan(s: Scenario, design) -> YieldPlan:
     model = s.yield_model
     line_y, extrapolated = bpr_line_yield(s.scaleup.bpr, model)
     target = model.target_yield_percent or line_y if model.mode == "target_yield" else None
-    if model.rule != "bpr_line" and target == 100.0 and model.rtd.kind != "plug":
+    rule = yield_rules.rule_of(model.rule)
+    if rule.dose and target == 100.0 and model.rtd.kind != "plug":
         raise ConfigError(f"yield_model.target_yield_percent=100 (the target at scaleup.bpr={s.scaleup.bpr}) cannot be "
                           f"reached under yield_model.rtd.kind={model.rtd.kind}: a share of the powder leaves early; "
                           "give a target below 100")
-    if model.rule == "bpr_line":
+    if not rule.dose:
         return YieldPlan(line_y, extrapolated, None, None)
-    if model.rule == "fitted":
-        exps = checked_experiments(s)
-        y = YieldPlan(line_y, extrapolated, None, target, lambda: fitted_curve(s, exps))
-        if is_fitted(s, exps):
-            y.ready(s)
-        return y
-    check_conditions([nominal_condition(s)], s)
-    ratio = design.naoh_feed_kg_per_h / design.pet_feed_kg_per_h
-    y = YieldPlan(line_y, extrapolated, None, target, lambda: lab_dose_line(s, ratio),
-                  {"calibration_dir": str(calibration_folder(s))})
-    if calibrated(s):
+    curve = rule.plan(s, design)
+    y = YieldPlan(line_y, extrapolated, None, target, curve.source, curve.folder)
+    if curve.ready:
         y.ready(s)
     return y
 
@@ -204,20 +197,10 @@ def time_curves(s: Scenario, y: YieldPlan, rec: dict) -> tuple[pd.DataFrame, pd.
     """Yield against time in the lab (the fit's conditions, or the calibration's nominal one at
     this BPR) and in the designed mill at its dose rate (plug flow, and averaged over its RTD
     against the mean residence time); the experiments as points."""
-    curve, rtd = y.curve, s.yield_model.rtd
+    curve, rtd, rule = y.curve, s.yield_model.rtd, yield_rules.rule_of(s.yield_model.rule)
     rate = rec[f"{curve.rate.replace('_per_kg', '_per_kg_pet')}"]
-    if s.yield_model.rule == "fitted":
-        rows = pd.read_csv(fit_folder(s, checked_experiments(s)) / "rows.csv")
-        until = TIME_SPAN * max(rec["residence_time_min"], rows.time_min.max())  # past the last experiment
-        lab, points = lab_time_curves(curve, rows, until), rows
-    else:
-        until = TIME_SPAN * max(rec["residence_time_min"], s.yield_model.lab_time_min)
-        ratio = rec["naoh_feed_kg_per_h"] / rec["pet_feed_kg_per_h"]
-        lab_rate = curve.lab_rate_w_per_kg_balls * s.scaleup.bpr * (1 + ratio)  # W per kg of PET at this BPR
-        t = np.linspace(0.0, until, 200)
-        lab = pd.DataFrame({"series": f"lab (nominal), BPR {s.scaleup.bpr:g}", "time_min": t,
-                            "yield_percent": curve.yield_percent(lab_rate * t * 60)})
-        points = None
+    until = TIME_SPAN * max(rec["residence_time_min"], rule.longest_lab_time_min(s))  # past the last experiment
+    lab, points = rule.lab_time_curves(s, curve, rec, until)
     t = np.linspace(0.0, until, 200)
     mill = [pd.DataFrame({"series": "mill, plug flow", "time_min": t,
                           "yield_percent": curve.yield_percent(rate * t * 60)})]

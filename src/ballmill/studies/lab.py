@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from .. import yield_rules
 from ..config import MM400_GEOMETRY, ConfigError
 from ..dem import SimulationError
 from ..dose import dose_rates, with_basis
@@ -15,7 +16,7 @@ from ..lab import conditions, jar_ball_mass_kg, mm400_spec, simulate_mm400, summ
 from ..lab_dose import calibration_conditions, calibration_folder, calibration_key, check_conditions, lab_rates
 from ..scaleup import design_mill
 from ..scenario import Scenario
-from ..yields import MEASURE, fit_dose_line
+from ..yields import fit_dose_line
 from .mechanics import check_machine, check_numerics
 from .plan import Plan
 
@@ -67,10 +68,11 @@ def plan_yield_calibration(s: Scenario) -> Plan:
         rates = lab_rates(s, model.impact_threshold_j)  # simulated first when missing
         nominal = rates.query("nominal").iloc[0]
         out = {"calibration_dir": str(calibration_folder(s)), "impact_threshold_j": model.impact_threshold_j}
-        for rule, measure in MEASURE.items():
+        for rule in yield_rules.dose_lines():
+            measure = rule.measure
             rates[f"{measure}_relative"] = rates[measure] / nominal[measure]
             line = fit_dose_line(measure, float(nominal[measure]), float(nominal[f"{measure}_se"]), model, ratio)
-            out |= {f"{rule}_{k}": v for k, v in line.as_record().items()}
+            out |= {f"{rule.name}_{k}": v for k, v in line.as_record().items()}
         rates.to_csv(out_dir / "lab_dose.csv", index=False)
         return out
 

@@ -9,6 +9,7 @@ import os
 from dataclasses import replace
 from pathlib import Path
 
+from .. import yield_rules
 from ..config import BallSizeConfig, ConfigError, DrumConfig, SimConfig
 from ..dem import SystemSpec
 from ..dose import MEASURES, dose_rates
@@ -117,8 +118,8 @@ def check_dem_mode(s: Scenario, design=None) -> None:
     and (unless extrapolation is allowed) the design's mill lies inside its training runs."""
     if s.dem.mode != "surrogate":
         return
-    if s.yield_model.rule == "impact_threshold":
-        raise ConfigError("dem=surrogate: yield_model.rule=impact_threshold needs the impact spectrum, which the "
+    if yield_rules.rule_of(s.yield_model.rule).needs_spectrum(s):
+        raise ConfigError(f"dem=surrogate: yield_model.rule={s.yield_model.rule} needs the impact spectrum, which the "
                           "surrogate does not predict; use dem=full, or yield_model=specific_energy")
     model = load_surrogate(s.dem.table)
     if design is not None:

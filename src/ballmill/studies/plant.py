@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+from .. import yield_rules
 from ..config import ConfigError
 from ..data import lookup, table
 from ..scaleup import design_mill
@@ -53,12 +54,13 @@ def plan_plant(s: Scenario) -> Plan:
     `design`; then the plant around it on BioSTEAM (plant/study.py): MSP and footprint, their
     Monte Carlo band, the tornado and the tables."""
     model, scale = s.yield_model, s.scaleup
-    if model.rule != "bpr_line" and model.mode == "fixed_time":
+    dose_rule = yield_rules.rule_of(model.rule).dose
+    if dose_rule and model.mode == "fixed_time":
         raise ConfigError("study=plant: yield_model.mode=fixed_time leaves the conversion, hence the mill's "
                           "throughput, unknown until the DEM; use yield_model.mode=target_yield")
     fresh = design_mill(scale).pet_feed_kg_per_h
     line_y, _ = bpr_line_yield(scale.bpr, model)
-    conversion = (model.target_yield_percent or line_y if model.rule != "bpr_line" else line_y) / 100.0
+    conversion = (model.target_yield_percent or line_y if dose_rule else line_y) / 100.0
     if scale.naoh_feed_kg_per_h is not None:
         raise ConfigError("study=plant: give the NaOH as scaleup.naoh_to_stoichiometric (the mill's NaOH follows its "
                           f"throughput), not scaleup.naoh_feed_kg_per_h={scale.naoh_feed_kg_per_h}")
