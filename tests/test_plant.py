@@ -46,6 +46,25 @@ def test_the_recycle_closes_at_the_designed_mill_throughput(built):
     assert built.ps.streams["bales"].F_mass == pytest.approx(fresh / (0.8 * 0.98), rel=1e-9)  # 80 % PET, 2 % fines
 
 
+def test_each_separation_meets_its_configured_recovery(built):
+    """The share of its key chemical each separating unit sends where its config says."""
+    u, cfg = built.ps.units, PlantConfig()
+
+    def share(unit, out, chemical):
+        return unit.outs[out].imol[chemical] / sum(s.imol[chemical] for s in unit.ins)
+
+    assert share(u["F401"], 0, "EthyleneGlycol") == pytest.approx(cfg.eg_stripper_recovery, rel=1e-9)
+    assert share(u["E401"], 1, "Water") == pytest.approx(cfg.evaporated_water_fraction, rel=1e-9)
+    assert share(u["D402"], 0, "Water") == pytest.approx(cfg.eg_column_water_recovery, rel=1e-9)
+    assert share(u["D402"], 1, "EthyleneGlycol") == pytest.approx(cfg.eg_column_eg_recovery, rel=1e-9)
+    assert share(u["S301"], 0, "TerephthalicAcid") == pytest.approx(cfg.tpa_recovery, rel=1e-9)
+    assert share(u["S201"], 0, "PET") == 1.0
+    assert share(u["S202"], 1, "PET") == pytest.approx(cfg.recycle_purge_fraction, rel=1e-9)
+    assert u["S401"].outs[0].imass["Na2SO4"] == pytest.approx(u["C401"].crystals_kg_per_h, rel=1e-9)
+    for dryer in ("D301", "D401"):
+        assert u[dryer].outs[0].imass["Water"] / u[dryer].outs[0].F_mass == pytest.approx(cfg.dry_moisture, rel=1e-6)
+
+
 def test_correlations_give_their_textbook_prices():
     """Worked by hand, brought from each correlation's index to CEPCI 2021 (708.8):
     Seider's forced-circulation body of 18.67 m2 = 200.96 ft2: exp(8.0369 + 0.6994 ln 200.96

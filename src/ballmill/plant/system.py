@@ -21,6 +21,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import biosteam as bst
+import thermosteam as tmo
+from scipy.optimize import brentq
 
 from .chemicals import create_chemicals, value
 from .units import Acidifier, BallMillReactor, Evaporator, SaltCrystallizer, SizeReduction, WastewaterTreatment, scaled
@@ -28,6 +30,7 @@ from .units import Acidifier, BallMillReactor, Evaporator, SaltCrystallizer, Siz
 EVAPORATOR_PRESSURES_PA = (101325.0, 60000.0, 25000.0)  # three effects, the last under vacuum
 RECYCLE_TOLERANCE_KMOL_PER_H = 1e-5
 RECYCLE_RELATIVE_TOLERANCE = 1e-7
+VAPOUR_FRACTION_TOLERANCE = 1e-12
 
 
 @dataclass(frozen=True)
@@ -57,6 +60,22 @@ class PlantSystem:
 def fresh_pet_kg_per_h(mill_pet_kg_per_h: float, conversion: float, purge: float) -> float:
     """Clean PET the mill needs from outside at a conversion per pass and a purge of the unreacted."""
     return mill_pet_kg_per_h * (1.0 - (1.0 - purge) * (1.0 - conversion))
+
+
+def vapour_fraction_for(feed: bst.Stream, P: float, chemical: str, recovery: float) -> float:
+    """The molar vapour fraction V at which `recovery` (0-1) of the `chemical` in `feed` leaves as
+    vapour in an equilibrium flash at `P` (Pa).  V counts only the chemicals that take part in the
+    equilibrium (the salts are locked in their phase), so it is solved for, not summed."""
+    if not feed.imol[chemical]:
+        return 0.0
+    mixed = tmo.MultiStream(None, thermo=feed.thermo)
+    mixed.copy_flow(feed)
+
+    def short_of(V: float) -> float:
+        mixed.vle(P=P, V=V)
+        return mixed.imol["g", chemical] / feed.imol[chemical] - recovery
+
+    return brentq(short_of, 0.0, 1.0, xtol=VAPOUR_FRACTION_TOLERANCE)
 
 
 def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str = "plant") -> PlantSystem:
@@ -143,6 +162,11 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
     P401 = bst.Pump("P401", ins=S301 - 1)
     E401 = Evaporator("E401", ins=P401 - 0, outs=("concentrate", "condensate"), key=cfg.evaporator_cost, cepci=cepci,
                       P=EVAPORATOR_PRESSURES_PA, V=cfg.evaporated_water_fraction, V_definition="Overall")
+
+    @E401.add_specification(run=True)
+    def evaporate_the_water():  # the bodies' last flash sets the split: its V for the configured share of water
+        E401.V = vapour_fraction_for(E401.ins[0], E401.P[-1], "Water", cfg.evaporated_water_fraction)
+
     C401 = SaltCrystallizer("C401", ins=E401 - 0, solubility=value("Na2SO4", "solubility_kg_per_kg_water"),
                             key=cfg.crystallizer_cost, cepci=cepci)
     S401 = bst.SolidsCentrifuge("S401", ins=C401 - 0, outs=("salt_cake", "EG_liquor"), split={"Na2SO4": 1.0},
@@ -161,9 +185,8 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
 
     @F401.add_specification(run=True)
     def strip_the_eg():
-        liquor = F401.ins[0]
-        volatile = liquor.imol["Water"] + cfg.eg_stripper_recovery * liquor.imol["EthyleneGlycol"]
-        F401.V = volatile / liquor.F_mol if liquor.F_mol else 0.0
+        F401.V = vapour_fraction_for(F401.ins[0], F401.P, "EthyleneGlycol", cfg.eg_stripper_recovery)
+
     D402 = scaled(bst.BinaryDistillation)("D402", ins=F401 - 0, outs=("column_water", "EG_product"),
                                           LHK=("Water", "EthyleneGlycol"), Lr=cfg.eg_column_water_recovery,
                                           Hr=cfg.eg_column_eg_recovery, k=cfg.eg_column_reflux_to_minimum,
