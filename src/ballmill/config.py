@@ -439,65 +439,66 @@ class PlantConfig:
     feed_form: str = field(default="flake", metadata={
         "choices": ("flake", "powder"),
         "doc": "what the mill takes: granulated flake, or flake pulverised to the fine powder the lab used"})
-    bale_pet_fraction: float = rng(0.8, 0.0, 1.0, lo_open=True,
+    bale_pet_fraction: float = rng(0.8, 0.5, 1.0,
                                    doc="PET in a tonne of bales (the rest, caps, labels and dirt, is sorted out)")
-    granulation_kwh_per_t: float = rng(132.0, 0.0, None, doc="granulator's electricity per tonne of bales")
-    flake_loss_fraction: float = rng(0.02, 0.0, 1.0, hi_open=True, doc="PET lost as fines in granulating and sorting")
-    pulverising_kwh_per_t: float = rng(200.0, 0.0, None, doc="pulveriser's electricity per tonne of flake (powder)")
-    powder_loss_fraction: float = rng(0.02, 0.0, 1.0, hi_open=True, doc="PET lost in pulverising (powder)")
+    granulation_kwh_per_t: float = rng(132.0, 0.0, 1000.0, doc="granulator's electricity per tonne of bales")
+    flake_loss_fraction: float = rng(0.02, 0.0, 0.5, doc="PET lost as fines in granulating and sorting")
+    pulverising_kwh_per_t: float = rng(200.0, 0.0, 2000.0, doc="pulveriser's electricity per tonne of flake (powder)")
+    powder_loss_fraction: float = rng(0.02, 0.0, 0.5, doc="PET lost in pulverising (powder)")
     granulator_cost: str = field(default="hammer_mill_seider_2017", metadata={
         "doc": "the granulator's cost correlation, a row of data/cost_correlations.csv"})
     pulveriser_cost: str = field(default="pulverizer_towler_2010", metadata={
         "doc": "the pulveriser's cost correlation, a row of data/cost_correlations.csv"})
     recycle_purge_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True,
                                         doc="share of the unreacted PET purged (1: no recycle)")
-    dissolution_water_kg_per_kg_na2tpa: float = rng(8.0, 0.0, None, lo_open=True, doc="water that dissolves the Na2TPA")
-    tank_residence_time_h: float = rng(1.0, 0.0, None, lo_open=True,
+    dissolution_water_kg_per_kg_na2tpa: float = rng(8.0, 5.0, 100.0, doc=(
+        "water that dissolves the Na2TPA (it dissolves to roughly 12-14 wt %, 6-7 kg/kg: below 5 it would not)"))
+    tank_residence_time_h: float = rng(1.0, 0.0, 48.0, lo_open=True,
                                        doc="residence time that sizes the dissolver and the acidifier (h)")
-    pet_cake_moisture: float = rng(0.3, 0.0, 1.0, hi_open=True, doc="water in the unreacted-PET cake (mass fraction)")
-    h2so4_to_stoichiometric: float = rng(1.02, 1.0, None,
+    pet_cake_moisture: float = rng(0.3, 0.0, 0.9, doc="water in the unreacted-PET cake (mass fraction)")
+    h2so4_to_stoichiometric: float = rng(1.02, 1.0, 2.0,
                                          doc="H2SO4 dosed / the acid that neutralises the Na2TPA and the NaOH left")
-    tpa_recovery: float = rng(0.98, 0.0, 1.0, lo_open=True, doc="share of the TPA the filter keeps")
-    tpa_cake_moisture: float = rng(0.2, 0.0, 1.0, hi_open=True, doc="water in the washed TPA cake (mass fraction)")
-    wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, None, doc="wash water on the TPA cake")
-    dry_moisture: float = rng(0.002, 0.0, 1.0, hi_open=True, doc="water left in the dried rTPA and salt (mass fraction)")
-    evaporated_water_fraction: float = rng(0.95, 0.0, 1.0, lo_open=True, hi_open=True,
+    tpa_recovery: float = rng(0.98, 0.5, 1.0, doc="share of the TPA the filter keeps")
+    tpa_cake_moisture: float = rng(0.2, 0.03, 0.6, doc="water in the washed TPA cake (mass fraction)")
+    wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, 20.0, doc="wash water on the TPA cake")
+    dry_moisture: float = rng(0.002, 0.0, 0.02, doc="water left in the dried rTPA and salt (mass fraction)")
+    evaporated_water_fraction: float = rng(0.95, 0.5, 0.99,
                                            doc="share of the mother liquor's water the evaporator removes")
     evaporator_cost: str = field(default="forced_circulation_evaporator_seider_2017", metadata={
         "doc": "the evaporator bodies' cost correlation (per body), a row of data/cost_correlations.csv"})
     crystallizer_cost: str = field(default="forced_circulation_crystallizer_seider_2017", metadata={
         "doc": "the Na2SO4 crystallizer's cost correlation, a row of data/cost_correlations.csv"})
-    salt_cake_moisture: float = rng(0.05, 0.0, 1.0, hi_open=True, doc="water in the centrifuged salt (mass fraction)")
-    eg_stripper_recovery: float = rng(0.95, 0.0, 1.0, lo_open=True, hi_open=True,
+    salt_cake_moisture: float = rng(0.05, 0.01, 0.4, doc="water in the centrifuged salt (mass fraction)")
+    eg_stripper_recovery: float = rng(0.95, 0.5, 0.999,
                                       doc="share of the liquor's EG the stripper sets out to vaporise")
-    eg_stripper_pressure_pa: float = rng(101325.0, 1000.0, None, doc="EG stripper's pressure (Pa)")
-    eg_column_water_recovery: float = rng(0.999, 0.5, 1.0, hi_open=True, doc="water to the EG column's top")
-    eg_column_eg_recovery: float = rng(0.995, 0.5, 1.0, hi_open=True, doc="EG to the EG column's bottom")
-    eg_column_reflux_to_minimum: float = rng(1.2, 1.0, None, lo_open=True, doc="reflux / minimum reflux")
-    eg_column_pressure_pa: float = rng(101325.0, 1000.0, None, doc="EG column's pressure (Pa)")
+    eg_stripper_pressure_pa: float = rng(101325.0, 5000.0, 500000.0, doc="EG stripper's pressure (Pa)")
+    eg_column_water_recovery: float = rng(0.999, 0.95, 0.9999, doc="water to the EG column's top")
+    eg_column_eg_recovery: float = rng(0.995, 0.9, 0.9999, doc="EG to the EG column's bottom")
+    eg_column_reflux_to_minimum: float = rng(1.2, 1.0, 5.0, lo_open=True, doc="reflux / minimum reflux")
+    eg_column_pressure_pa: float = rng(101325.0, 5000.0, 500000.0, doc="EG column's pressure (Pa)")
     eg_price_fraction: float = rng(0.7, 0.0, 1.0, doc="recovered EG's price / virgin MEG's (purity discount)")
-    na2so4_usd_per_t: float = rng(0.0, -1e4, 1e4, doc="the salt's value: sale (> 0) or disposal (< 0)")
+    na2so4_usd_per_t: float = rng(0.0, -1000.0, 1000.0, doc="the salt's value: sale (> 0) or disposal (< 0)")
     cost_year: int = rng(2021, 1950, 2100, doc="dollar year of the plant: equipment by CEPCI, the prices' year")
-    mill_bare_module_factor: float = rng(2.3, 1.0, None, doc="installed / purchase cost of the ball mill")
-    warehouse: float = rng(0.04, 0.0, None, doc="of ISBL installed cost")
-    site_development: float = rng(0.09, 0.0, None, doc="of ISBL installed cost")
-    additional_piping: float = rng(0.045, 0.0, None, doc="of ISBL installed cost")
-    prorateable: float = rng(0.10, 0.0, None, doc="prorateable costs, of the direct cost")
-    field_expenses: float = rng(0.10, 0.0, None, doc="of the direct cost")
-    construction: float = rng(0.20, 0.0, None, doc="home office and construction fees, of the direct cost")
-    contingency: float = rng(0.10, 0.0, None, doc="project contingency, of the direct cost")
-    other_indirect: float = rng(0.10, 0.0, None, doc="start-up, permits and other indirect costs, of the direct cost")
-    working_capital_fraction: float = rng(0.05, 0.0, None, doc="of the fixed capital")
+    mill_bare_module_factor: float = rng(2.3, 1.0, 10.0, doc="installed / purchase cost of the ball mill")
+    warehouse: float = rng(0.04, 0.0, 1.0, doc="of ISBL installed cost")
+    site_development: float = rng(0.09, 0.0, 1.0, doc="of ISBL installed cost")
+    additional_piping: float = rng(0.045, 0.0, 1.0, doc="of ISBL installed cost")
+    prorateable: float = rng(0.10, 0.0, 1.0, doc="prorateable costs, of the direct cost")
+    field_expenses: float = rng(0.10, 0.0, 1.0, doc="of the direct cost")
+    construction: float = rng(0.20, 0.0, 1.0, doc="home office and construction fees, of the direct cost")
+    contingency: float = rng(0.10, 0.0, 1.0, doc="project contingency, of the direct cost")
+    other_indirect: float = rng(0.10, 0.0, 1.0, doc="start-up, permits and other indirect costs, of the direct cost")
+    working_capital_fraction: float = rng(0.05, 0.0, 1.0, doc="of the fixed capital")
     staffing: str = field(default="per_unit", metadata={
         "choices": ("per_unit", "fixed"),
         "doc": "per_unit: operators per shift from each unit (data/staffing.csv); fixed: plant.staff"})
-    staff: int = rng(20, 0, None, doc="operating staff with staffing=fixed")
-    operators_per_position: float = rng(4.5, 1.0, None, doc="staff per operator position around the clock")
-    operator_wage_usd_per_yr: float = rng(65460.0, 0.0, None, doc="operator's mean annual wage")
-    supervision_fraction: float = rng(0.15, 0.0, None, doc="supervisory and clerical labour, of operating labour")
-    labour_burden: float = rng(0.9, 0.0, None, doc="overhead on salaries")
-    maintenance_fraction: float = rng(0.03, 0.0, None, doc="of ISBL installed cost per year")
-    insurance_fraction: float = rng(0.007, 0.0, None, doc="property insurance and tax, of the fixed capital per year")
+    staff: int = rng(20, 1, 1000, doc="operating staff with staffing=fixed")
+    operators_per_position: float = rng(4.5, 1.0, 10.0, doc="staff per operator position around the clock")
+    operator_wage_usd_per_yr: float = rng(65460.0, 0.0, 1e6, doc="operator's mean annual wage")
+    supervision_fraction: float = rng(0.15, 0.0, 1.0, doc="supervisory and clerical labour, of operating labour")
+    labour_burden: float = rng(0.9, 0.0, 3.0, doc="overhead on salaries")
+    maintenance_fraction: float = rng(0.03, 0.0, 0.2, doc="of ISBL installed cost per year")
+    insurance_fraction: float = rng(0.007, 0.0, 0.1, doc="property insurance and tax, of the fixed capital per year")
     plant_life_yr: int = rng(30, 1, 100, doc="years of operation")
     construction_fractions: list[float] = field(default_factory=lambda: [0.08, 0.60, 0.32], metadata={
         "doc": "capital spent in each construction year (sums to 1)"})
@@ -508,7 +509,7 @@ class PlantConfig:
     discount_rate: float = rng(0.10, 0.0, 1.0, lo_open=True, doc="internal rate of return (real, after tax)")
     tax_rate: float = rng(0.21, 0.0, 1.0, hi_open=True, doc="income tax rate")
     depreciation_file: str = field(default="macrs_7yr.csv", metadata={"doc": "depreciation schedule, a data/ table"})
-    monte_carlo_draws: int = rng(2000, 0, None, doc="draws of the Monte Carlo (0: none)")
+    monte_carlo_draws: int = rng(2000, 0, 100_000, doc="draws of the Monte Carlo (0: none)")
     seed: int = rng(0, 0, None, doc="seed of the Monte Carlo draws")
 
     def __post_init__(self):
@@ -516,6 +517,10 @@ class PlantConfig:
         if abs(sum(self.construction_fractions) - 1.0) > 1e-9:
             raise ConfigError(f"plant.construction_fractions={self.construction_fractions} sum to "
                               f"{sum(self.construction_fractions):g}: they must sum to 1")
+        for cake in ("tpa_cake_moisture", "salt_cake_moisture"):
+            if self.dry_moisture >= getattr(self, cake):
+                raise ConfigError(f"plant.dry_moisture={self.dry_moisture} must be below plant.{cake}="
+                                  f"{getattr(self, cake)}: a dryer cannot add water")
 
 
 def check_interval(name: str, values: list, lo: float | None = None, hi: float | None = None) -> None:
