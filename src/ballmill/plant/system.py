@@ -28,8 +28,8 @@ from .chemicals import create_chemicals, value
 from .units import Acidifier, BallMillReactor, Evaporator, SaltCrystallizer, SizeReduction, WastewaterTreatment, scaled
 
 EVAPORATOR_PRESSURES_PA = (101325.0, 60000.0, 25000.0)  # three effects, the last under vacuum
-RECYCLE_TOLERANCE_KMOL_PER_H = 1e-5
-RECYCLE_RELATIVE_TOLERANCE = 1e-7
+RECYCLE_TOLERANCE_KMOL_PER_H = 1e-7
+RECYCLE_RELATIVE_TOLERANCE = 1e-9
 VAPOUR_FRACTION_TOLERANCE = 1e-12
 
 

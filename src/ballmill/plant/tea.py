@@ -19,10 +19,14 @@ from __future__ import annotations
 import math
 
 import biosteam as bst
+import flexsolve as flx
+import numpy as np
+from biosteam._tea import NPV_with_sales
 
 from ..data import lookup, table
 
 STAFFING_FILE = "staffing.csv"
+SALES_TOLERANCE_USD_PER_YR = 1e-4  # BioSTEAM stops within 10 $/yr of sales, ~1e-6 of the MSP: start-dependent
 OSBL = (bst.StorageTank, bst.CoolingTower)  # outside the battery limits: no warehouse/site/piping add-on
 
 
@@ -58,6 +62,20 @@ class PlantTEA(bst.TEA):
             WC_over_FCI=cfg.working_capital_fraction, finance_interest=cfg.loan_interest,
             finance_years=cfg.loan_years, finance_fraction=cfg.loan_fraction)
         self.cfg = cfg
+
+    def solve_sales(self) -> float:
+        """Yearly sales ($) to add for NPV = 0: BioSTEAM's answer refined by secant steps to
+        SALES_TOLERANCE_USD_PER_YR, so that the MSP does not depend on where the solver started."""
+        rough = super().solve_sales()
+        years = self._get_duration_array()
+        coefficients = np.ones_like(years, dtype=float)
+        coefficients[:self._start] = 0.0
+        coefficients[self._start] = self._startup_time * self.startup_salesfrac + 1.0 - self._startup_time
+        args = (*self._taxable_nontaxable_depreciation_cashflows(), coefficients, (1 + self.IRR) ** years,
+                self._fill_tax_and_incentives)
+        self._sales = flx.aitken_secant(NPV_with_sales, rough, rough + 1.0, xtol=SALES_TOLERANCE_USD_PER_YR,
+                                        ytol=SALES_TOLERANCE_USD_PER_YR, maxiter=100, args=args, checkiter=True)
+        return self._sales
 
     @property
     def isbl_installed_usd(self) -> float:
