@@ -93,9 +93,14 @@ def test_the_large_units_are_priced_by_their_correlations(built):
     u = built.ps.units
     ft2 = [max(150.0, 10.7639 * a) for a in u["E401"]._As]  # a body below the 150 ft2 range is priced at 150
     bodies = sum(math.exp(8.0369 + 0.6994 * math.log(a) - 0.00004 * math.log(a) ** 2) for a in ft2) * CEPCI_2021 / 567
-    assert u["E401"].purchase_costs["Evaporators"] == pytest.approx(bodies, rel=1e-9)
-    crystals = u["C401"].crystals_kg_per_h * 24 / 907.18474
-    assert u["C401"].purchase_cost == pytest.approx(39575 * crystals**0.56 * CEPCI_2021 / 567, rel=1e-5)  # 6-digit unit factor
+    assert u["E401"].purchase_costs["Evaporators"] == pytest.approx(2.1 * bodies, rel=1e-9)  # stainless 316 (Seider)
+    assert u["C401"].purchase_cost == 0.0  # the last body is the crystallizer
+    separate = plant(MILL, replace(PlantConfig(), crystallizer="separate", brine_material="carbon_steel"), ECON,
+                     name="crystallizer")
+    separate.evaluate()
+    crystals = separate.ps.units["C401"].crystals_kg_per_h * 24 / 907.18474
+    assert separate.ps.units["C401"].purchase_cost == pytest.approx(39575 * crystals**0.56 * CEPCI_2021 / 567,
+                                                                    rel=1e-5)  # 6-digit unit factor
     area = u["S201"].design_results["Individual area"]  # ft2: BioSTEAM prices Seider's rotary-drum vacuum filter
     vessel = math.exp(11.796 - 0.1905 * math.log(area) + 0.0554 * math.log(area) ** 2) * CEPCI_2021 / 567
     assert u["S201"].purchase_costs["Vessels"] == pytest.approx(vessel * u["S201"].parallel["self"], rel=1e-9)

@@ -449,6 +449,10 @@ class PlantConfig:
         "doc": "the granulator's cost correlation, a row of data/cost_correlations.csv"})
     pulveriser_cost: str = field(default="pulverizer_towler_2010", metadata={
         "doc": "the pulveriser's cost correlation, a row of data/cost_correlations.csv"})
+    naoh_dosing: str = field(default="whole_feed", metadata={
+        "choices": ("whole_feed", "converting_pet"),
+        "doc": "NaOH dosed on all PET entering the mill (what the yield data were measured with), or only on the PET "
+               "that converts per pass (less NaOH, less acid: whether the conversion holds is not known)"})
     recycle_purge_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True,
                                         doc="share of the unreacted PET purged (1: no recycle)")
     dissolution_water_kg_per_kg_na2tpa: float = rng(8.0, 5.0, 100.0, doc=(
@@ -466,6 +470,13 @@ class PlantConfig:
                                            doc="share of the mother liquor's water the evaporator removes")
     evaporator_cost: str = field(default="forced_circulation_evaporator_seider_2017", metadata={
         "doc": "the evaporator bodies' cost correlation (per body), a row of data/cost_correlations.csv"})
+    crystallizer: str = field(default="last_effect", metadata={
+        "choices": ("last_effect", "separate"),
+        "doc": "last_effect: the evaporator's last forced-circulation body, holding the slurry, is the crystallizer "
+               "(priced once, as a body); separate: a crystallizer priced beside it"})
+    brine_material: str = field(default="stainless_steel_316", metadata={
+        "doc": "material of the units in acidic sulfate brine (TPA filter, evaporator, crystallizer, centrifuge), a row "
+               "of data/material_factors.csv"})
     crystallizer_cost: str = field(default="forced_circulation_crystallizer_seider_2017", metadata={
         "doc": "the Na2SO4 crystallizer's cost correlation, a row of data/cost_correlations.csv"})
     salt_cake_moisture: float = rng(0.05, 0.01, 0.4, doc="water in the centrifuged salt (mass fraction)")
@@ -478,6 +489,10 @@ class PlantConfig:
     eg_column_pressure_pa: float = rng(101325.0, 5000.0, 500000.0, doc="EG column's pressure (Pa)")
     eg_price_fraction: float = rng(0.7, 0.0, 1.0, doc="recovered EG's price / virgin MEG's (purity discount)")
     na2so4_usd_per_t: float = rng(0.0, -1000.0, 1000.0, doc="the salt's value: sale (> 0) or disposal (< 0)")
+    landfill: str = field(default="landfill_low_organic", metadata={
+        "choices": ("landfill_low_organic", "landfill"),
+        "doc": "the greenhouse-gas factor of the landfilled plastics and salt (a row of data/ghg_factors.csv): "
+               "low-organic-carbon waste, or organic waste"})
     cost_year: int = rng(2021, 1950, 2100, doc="dollar year of the plant: equipment by CEPCI, the prices' year")
     mill_bare_module_factor: float = rng(2.3, 1.0, 10.0, doc="installed / purchase cost of the ball mill")
     warehouse: float = rng(0.04, 0.0, 1.0, doc="of ISBL installed cost")
@@ -497,7 +512,10 @@ class PlantConfig:
     operator_wage_usd_per_yr: float = rng(65460.0, 0.0, 1e6, doc="operator's mean annual wage")
     supervision_fraction: float = rng(0.15, 0.0, 1.0, doc="supervisory and clerical labour, of operating labour")
     labour_burden: float = rng(0.9, 0.0, 3.0, doc="overhead on salaries")
-    maintenance_fraction: float = rng(0.03, 0.0, 0.2, doc="of ISBL installed cost per year")
+    maintenance_fraction: float = rng(0.03, 0.0, 0.2, doc="of the maintenance basis per year")
+    maintenance_basis: str = field(default="isbl_installed", metadata={
+        "choices": ("isbl_installed", "fixed_capital"),
+        "doc": "what maintenance_fraction is a share of: ISBL installed cost (NREL) or the fixed capital"})
     insurance_fraction: float = rng(0.007, 0.0, 0.1, doc="property insurance and tax, of the fixed capital per year")
     plant_life_yr: int = rng(30, 1, 100, doc="years of operation")
     construction_fractions: list[float] = field(default_factory=lambda: [0.08, 0.60, 0.32], metadata={

@@ -6,14 +6,17 @@
                           -> PET filter: unreacted PET back to the mill, less a purge
     300 TPA               acidifier (H2SO4) -> TPA filter (wash water) -> steam dryer -> rTPA
     400 salt and EG       mother liquor -> multiple-effect evaporator -> Na2SO4 crystallizer
-                          -> centrifuge -> steam dryer -> Na2SO4; liquor -> EG stripper (vacuum
-                          flash) -> EG column (water off the top, EG from the bottom); residue
-    500 wastewater        condensates and the column's water -> treatment (priced by COD)
+                          (the last body, or a unit of its own) -> centrifuge -> steam dryer ->
+                          Na2SO4; liquor -> EG stripper (flash) -> EG column (water off the
+                          top, EG from the bottom); residue
+    500 wastewater        condensates and the column's water -> treatment (priced by COD; its
+                          organics oxidised to fossil CO2)
     600 storage, cooling  acid and EG tanks, cooling tower; steam is bought (its price per kg)
 
 The mill's PET throughput is the designed one: the bale feed follows from the conversion per
 pass, the purge, the bale's PET content and the fines lost, so that the recycle loop closes at
 it.  Prices ($/kg) are those of the PlantPrices given; utilities are set by tea.configure.
+The units in acidic sulfate brine (BRINE_UNITS) carry the material factor of plant.brine_material.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import biosteam as bst
 import thermosteam as tmo
 from scipy.optimize import brentq
 
+from ..data import lookup
 from .chemicals import create_chemicals, value
 from .units import Acidifier, BallMillReactor, Evaporator, SaltCrystallizer, SizeReduction, WastewaterTreatment, scaled
 
@@ -31,6 +35,8 @@ EVAPORATOR_PRESSURES_PA = (101325.0, 60000.0, 25000.0)  # three effects, the las
 RECYCLE_TOLERANCE_KMOL_PER_H = 1e-7
 RECYCLE_RELATIVE_TOLERANCE = 1e-9
 VAPOUR_FRACTION_TOLERANCE = 1e-12
+BRINE_UNITS = ("S301", "E401", "C401", "S401")  # acidified liquor: TPA filter, evaporator, crystallizer, centrifuge
+NAOH_DOSED_ON = {"whole_feed": lambda conversion: 1.0, "converting_pet": lambda conversion: conversion}
 
 
 @dataclass(frozen=True)
@@ -124,7 +130,8 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
 
     @R201.add_specification(run=True)
     def naoh_for_the_pet():
-        naoh.imol["NaOH"] = 2 * mill.naoh_to_stoichiometric * R201.ins[0].imol["PET"]
+        share = NAOH_DOSED_ON[cfg.naoh_dosing](R201.conversion)
+        naoh.imol["NaOH"] = 2 * mill.naoh_to_stoichiometric * share * R201.ins[0].imol["PET"]
 
     T201 = scaled(bst.MixTank)("T201", ins=(R201 - 0, water), tau=cfg.tank_residence_time_h)
 
@@ -168,8 +175,8 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
         E401.V = vapour_fraction_for(E401.ins[0], E401.P[-1], "Water", cfg.evaporated_water_fraction)
 
     C401 = SaltCrystallizer("C401", ins=E401 - 0, solubility=value("Na2SO4", "solubility_kg_per_kg_water"),
-                            key=cfg.crystallizer_cost, cepci=cepci)
-    S401 = bst.SolidsCentrifuge("S401", ins=C401 - 0, outs=("salt_cake", "EG_liquor"), split={"Na2SO4": 1.0},
+                            key=cfg.crystallizer_cost, cepci=cepci, priced=cfg.crystallizer == "separate")
+    S401 = scaled(bst.SolidsCentrifuge)("S401", ins=C401 - 0, outs=("salt_cake", "EG_liquor"), split={"Na2SO4": 1.0},
                                 solids=("Na2SO4",), moisture_content=cfg.salt_cake_moisture)
 
     @S401.add_specification(run=True)
@@ -194,7 +201,8 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
 
     # 500 wastewater, 600 storage and cooling
     M501 = bst.Mixer("M501", ins=(E401 - 1, D402 - 0))
-    WastewaterTreatment("W501", ins=M501 - 0, outs=S("treated_water"), usd_per_kg_cod=prices["cod_removal"])
+    WastewaterTreatment("W501", ins=(M501 - 0, S("treatment_air")), outs=(S("treated_water"), S("treatment_CO2")),
+                        usd_per_kg_cod=prices["cod_removal"])
     bst.StorageTank("T602", ins=D402 - 1, outs=eg, vessel_material="Stainless steel")
     CT = bst.CoolingTower("CT")
     CT.ins[2].price = prices["cooling_tower_chemicals"]
@@ -202,4 +210,7 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
     # BioSTEAM's defaults (1 kmol/h, 1 %) leave the PET recycle (~2 kmol/h) path-dependent by ~1 % of the MSP
     system.set_tolerance(mol=RECYCLE_TOLERANCE_KMOL_PER_H, rmol=RECYCLE_RELATIVE_TOLERANCE, subsystems=True)
     streams = {s.ID: s for s in fs.stream}
-    return PlantSystem(system, fs, streams, {u.ID: u for u in fs.unit})
+    units = {u.ID: u for u in fs.unit}
+    for ID in BRINE_UNITS:
+        units[ID].material_factor = lookup("material_factors.csv", "material", cfg.brine_material, "factor")
+    return PlantSystem(system, fs, streams, units)

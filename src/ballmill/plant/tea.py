@@ -5,7 +5,8 @@ Capital: installed equipment (each unit's purchase cost x its bare-module factor
 site development and additional piping on the inside-battery-limits (ISBL) part = direct cost;
 + prorateable, field, construction and contingency = depreciable capital; + other indirect =
 fixed capital; working capital a share of it.  Fixed operating cost: labour (the staffing rule
-below) with its burden, maintenance on ISBL, property insurance on fixed capital.  Variable
+below) with its burden, maintenance on ISBL installed cost (NREL) or on the fixed capital
+(plant.maintenance_basis), property insurance on fixed capital.  Variable
 cost: the streams' prices and the utilities.  `solve_price` finds the rTPA price at which the
 net present value at the internal rate of return is zero (the minimum selling price).
 
@@ -103,9 +104,14 @@ class PlantTEA(bst.TEA):
     def _FCI(self, TDC):
         return TDC + self.DPI * self.cfg.other_indirect
 
+    def maintenance_usd_per_yr(self, FCI: float) -> float:
+        c = self.cfg
+        basis = {"isbl_installed": self.isbl_installed_usd, "fixed_capital": FCI}[c.maintenance_basis]
+        return basis * c.maintenance_fraction
+
     def _FOC(self, FCI):
         c = self.cfg
-        return (FCI * c.insurance_fraction + self.isbl_installed_usd * c.maintenance_fraction
+        return (FCI * c.insurance_fraction + self.maintenance_usd_per_yr(FCI)
                 + self.labour_usd_per_yr * (1.0 + c.labour_burden))
 
 

@@ -7,10 +7,12 @@
 - Evaporator: BioSTEAM's MultiEffectEvaporator with its bodies priced by Seider's
   forced-circulation correlation, one body at a time (BioSTEAM's own price is kept beside).
 - SaltCrystallizer: Na2SO4 above its solubility leaves the liquor as crystals.
-- WastewaterTreatment: effluent priced by its chemical oxygen demand.
+- WastewaterTreatment: effluent priced by its chemical oxygen demand; its organics oxidised
+  to CO2 and water with the air's oxygen.
 
 Every unit's `cost_factor` scales its purchase cost (the Monte Carlo draws it between the
-published correlations of data/cost_correlations.csv).
+published correlations of data/cost_correlations.csv), and its `material_factor` (its
+material's, data/material_factors.csv) too.
 """
 
 from __future__ import annotations
@@ -26,15 +28,17 @@ SIZE_REDUCTION_BARE_MODULE = 2.3  # as BioSTEAM's HammerMill and CrushingMill ca
 
 
 def scaled(cls):
-    """`cls` whose purchase costs are multiplied by its `cost_factor` (default 1)."""
+    """`cls` whose purchase costs are multiplied by its `cost_factor` and its `material_factor`
+    (each 1 by default)."""
 
     class Scaled(cls):
         cost_factor = 1.0
+        material_factor = 1.0
 
         def _cost(self):
             super()._cost()
             for item in self.baseline_purchase_costs:
-                self.baseline_purchase_costs[item] *= self.cost_factor
+                self.baseline_purchase_costs[item] *= self.cost_factor * self.material_factor
 
     Scaled.__name__ = cls.__name__
     Scaled.__qualname__ = cls.__qualname__
@@ -140,15 +144,16 @@ class Evaporator(bst.MultiEffectEvaporator):
 class SaltCrystallizer(bst.Unit):
     """Na2SO4 above `solubility` (kg per kg water) crystallises (the solid leaves with the
     slurry; the centrifuge after it splits crystals from liquor); priced by the correlation `key`
-    (kg/h of crystals) at `cepci`."""
+    (kg/h of crystals) at `cepci`, or not at all where `priced` is false (the evaporator's last
+    body is the crystallizer)."""
 
     _N_ins = 1
     _N_outs = 1
     _F_BM_default: ClassVar[dict] = {"Crystallizer": 2.0}
     _units: ClassVar[dict] = {"Crystals": "kg/hr"}
 
-    def _init(self, solubility: float, key: str, cepci: float):
-        self.solubility, self.key, self.cepci = solubility, key, cepci
+    def _init(self, solubility: float, key: str, cepci: float, priced: bool = True):
+        self.solubility, self.key, self.cepci, self.priced = solubility, key, cepci, priced
 
     def _run(self):
         self.outs[0].copy_like(self.ins[0])
@@ -163,8 +168,8 @@ class SaltCrystallizer(bst.Unit):
 
     def _cost(self):
         p = price(self.key, self.design_results["Crystals"], self.cepci)
-        self.baseline_purchase_costs["Crystallizer"] = p.usd
-        self.below_range = p.below_range
+        self.baseline_purchase_costs["Crystallizer"] = p.usd if self.priced else 0.0
+        self.below_range = p.below_range and self.priced
 
 
 def cod_kg_per_kg(chemical) -> float:
@@ -177,20 +182,32 @@ def cod_kg_per_kg(chemical) -> float:
 
 
 class WastewaterTreatment(bst.Unit):
-    """The plant's effluent, treated at `usd_per_kg_cod` of its chemical oxygen demand (charged
-    as the negative price of the treated water)."""
+    """The plant's effluent (ins[0]), treated at `usd_per_kg_cod` of its chemical oxygen demand
+    (charged as the negative price of the treated water, outs[0]); its organics (CxHyOz) are
+    oxidised to CO2 (outs[1], fossil carbon) and water with the oxygen of the air (ins[1])."""
 
-    _N_ins = 1
-    _N_outs = 1
+    _N_ins = 2
+    _N_outs = 2
     _units: ClassVar[dict] = {"COD": "kg/hr", "Flow": "m3/hr"}
 
     def _init(self, usd_per_kg_cod: float):
         self.usd_per_kg_cod = usd_per_kg_cod
 
     def _run(self):
-        treated = self.outs[0]
-        treated.copy_like(self.ins[0])
+        effluent, air = self.ins
+        treated, offgas = self.outs
+        treated.copy_like(effluent)
+        offgas.empty()
+        offgas.phase = "g"
+        air.empty()
         self.cod_kg_per_h = sum(treated.imass[c.ID] * cod_kg_per_kg(c) for c in treated.available_chemicals)
+        for c in treated.available_chemicals:
+            if cod_kg_per_kg(c) and treated.imol[c.ID]:
+                n, atoms = treated.imol[c.ID], c.atoms
+                treated.imol[c.ID] = 0.0
+                treated.imol["Water"] += n * atoms["H"] / 2
+                offgas.imol["CO2"] += n * atoms["C"]
+                air.imol["O2"] += n * (atoms["C"] + atoms["H"] / 4 - atoms.get("O", 0) / 2)
         treated.price = -self.usd_per_kg_cod * self.cod_kg_per_h / treated.F_mass if treated.F_mass else 0.0
 
     def _design(self):

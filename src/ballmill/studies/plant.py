@@ -45,6 +45,7 @@ def check_plant_tables(plant, prices_file: str) -> None:
     if missing:
         raise ConfigError(f"economics.prices_file={prices_file}: no price for {missing} (the plant needs them)")
     lookup("cepci.csv", "year", plant.cost_year, "cepci")
+    lookup("material_factors.csv", "material", plant.brine_material, "factor")
 
 
 def plan_plant(s: Scenario) -> Plan:
@@ -65,9 +66,10 @@ def plan_plant(s: Scenario) -> Plan:
     if not 0.0 < conversion <= 1.0:
         raise ConfigError(f"study=plant: the mill's conversion per pass is {conversion:.3g}; it must lie in (0, 1] "
                           "(a yield of 0 % makes no product: raise the BPR or the residence time)")
-    if scale.naoh_to_stoichiometric < conversion:
-        raise ConfigError(f"scaleup.naoh_to_stoichiometric={scale.naoh_to_stoichiometric} is below the conversion "
-                          f"{conversion:.3g}: the mill would run out of NaOH")
+    least = conversion if s.plant.naoh_dosing == "whole_feed" else 1.0  # NaOH per PET through the mill, or converting
+    if scale.naoh_to_stoichiometric < least:
+        raise ConfigError(f"scaleup.naoh_to_stoichiometric={scale.naoh_to_stoichiometric} is below {least:.3g} with "
+                          f"plant.naoh_dosing={s.plant.naoh_dosing}: the mill would run out of NaOH")
     check_plant_tables(s.plant, s.economics.prices_file)
     mill_pet = mill_throughput_kg_per_h(fresh, conversion, s.plant.recycle_purge_fraction)
     mill_plan = plan_design(replace(s, scaleup=replace(scale, pet_feed_kg_per_h=mill_pet, region=None)))
