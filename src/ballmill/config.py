@@ -431,6 +431,44 @@ class YieldModelConfig:
 
 
 @dataclass
+class EvaporationConfig:
+    """How the mother liquor's water is evaporated (plant/evaporation=multi_effect|mvr; the options:
+    plant/evaporation.py).  multi_effect: bodies at effect_pressures_pa heated by the plant's
+    steam, the first by live steam; mvr: one forced-circulation body heated by its own vapour,
+    recompressed on electricity (kwh_per_t_water, the feed preheated by the condensate)."""
+
+    kind: str = field(default="multi_effect", metadata={"choices": ("multi_effect", "mvr"),
+                                                         "doc": "multiple effects on steam, or vapour recompression"})
+    effect_pressures_pa: list[float] = field(default_factory=lambda: [101325.0, 60000.0, 25000.0], metadata={
+        "doc": "multi_effect: each body's pressure, falling (Pa; one to six effects)"})
+    kwh_per_t_water: float = rng(30.0, 10.0, 100.0, doc="mvr: electricity per tonne of water evaporated")
+    pressure_pa: float = rng(101325.0, 20000.0, 300000.0, doc="mvr: the body's pressure (Pa)")
+    temperature_difference_k: float = rng(6.0, 2.0, 20.0,
+                                          doc="mvr: condensing vapour over boiling liquor, set by the compression (K)")
+    u_w_per_m2_k: float = rng(2000.0, 300.0, 6000.0, doc="mvr: the body's overall heat-transfer coefficient")
+    compressor_cost: str = field(default="centrifugal_compressor_seider_2017", metadata={
+        "doc": "mvr: the compressor's cost correlation (kW of shaft power), a row of data/cost_correlations.csv"})
+
+    def __post_init__(self):
+        p = self.effect_pressures_pa
+        if not 1 <= len(p) <= 6 or any(b >= a for a, b in zip(p, p[1:])) or not 5000.0 <= min(p) <= max(p) <= 5e5:
+            raise ConfigError(f"plant.evaporation.effect_pressures_pa={p}: give one to six falling pressures within "
+                              "[5000.0, 500000.0] Pa")
+
+
+@dataclass
+class HeatConfig:
+    """Where the plant's steam comes from (plant/heat=bought_steam|electric_boiler|residue_boiler;
+    the options: plant/heat.py).  bought_steam: at its price and natural gas's factor; an electric
+    boiler on the grid; a boiler burning the sorted-out plastics, topped up with bought steam."""
+
+    kind: str = field(default="bought_steam", metadata={
+        "choices": ("bought_steam", "electric_boiler", "residue_boiler"), "doc": "the steam's source"})
+    electric_efficiency: float = rng(0.99, 0.5, 1.0, doc="electric_boiler: steam heat / electricity")
+    boiler_efficiency: float = rng(0.80, 0.3, 0.95, doc="residue_boiler: steam heat / the fuel's lower heating value")
+
+
+@dataclass
 class PlantConfig:
     """The plant around the mill, on BioSTEAM: feed preparation, the units' design choices, the
     cost year, NREL's TEA convention, the staffing rule and the Monte Carlo (defaults and their
@@ -527,6 +565,15 @@ class PlantConfig:
     discount_rate: float = rng(0.10, 0.0, 1.0, lo_open=True, doc="internal rate of return (real, after tax)")
     tax_rate: float = rng(0.21, 0.0, 1.0, hi_open=True, doc="income tax rate")
     depreciation_file: str = field(default="macrs_7yr.csv", metadata={"doc": "depreciation schedule, a data/ table"})
+    evaporation: EvaporationConfig = field(default_factory=EvaporationConfig, metadata={
+        "doc": "the evaporator (plant/evaporation=...)"})
+    heat: HeatConfig = field(default_factory=HeatConfig, metadata={"doc": "the steam's source (plant/heat=...)"})
+    prices_usd_per_t: dict[str, float] = field(default_factory=dict, metadata={
+        "doc": "prices that replace the prices file's, by item ($/t; steam per t, electricity: economics), e.g. "
+               "+plant.prices_usd_per_t.naoh=700"})
+    ghg_kg_co2e: dict[str, float] = field(default_factory=dict, metadata={
+        "doc": "greenhouse-gas factors that replace data/ghg_factors.csv's, by item (its unit: kg, MJ or kWh), e.g. "
+               "+plant.ghg_kg_co2e.electricity_us=0.1"})
     monte_carlo_draws: int = rng(2000, 0, 100_000, doc="draws of the Monte Carlo (0: none)")
     seed: int = rng(0, 0, None, doc="seed of the Monte Carlo draws")
 
@@ -791,6 +838,8 @@ def register() -> None:
     cs.store(group="study", name="base_study", node=StudyConfig)
     cs.store(group="yield_model", name="base_yield_model", node=YieldModelConfig)
     cs.store(group="plant", name="base_plant", node=PlantConfig)
+    cs.store(group="plant/evaporation", name="base_evaporation", node=EvaporationConfig)
+    cs.store(group="plant/heat", name="base_heat", node=HeatConfig)
     cs.store(group="dem", name="base_dem", node=DemConfig)
     cs.store(group="optimiser", name="base_optimiser", node=OptimiserConfig)
     for name, node in COMMANDS.items():

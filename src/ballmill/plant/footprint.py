@@ -21,9 +21,10 @@ KEY = "GWP"
 FILE = "ghg_factors.csv"
 STEAM = ("low_pressure_steam", "medium_pressure_steam", "high_pressure_steam")
 INPUTS = {"bales": "pet_bale", "NaOH": "naoh", "sulfuric_acid": "h2so4", "dissolution_water": "process_water",
-          "wash_water": "process_water", "cooling_tower_makeup_water": "process_water"}
+          "wash_water": "process_water", "cooling_tower_makeup_water": "process_water"}  # and each steam agent
 LANDFILLED = ("sorting_residue", "grinding_fines", "purged_PET", "residue")  # plastics and salt
-WASTES = {**dict.fromkeys(LANDFILLED, "landfill"), "treated_water": "wastewater", "treatment_CO2": "fossil_co2"}
+WASTES = {**dict.fromkeys(LANDFILLED, "landfill"), "treated_water": "wastewater", "treatment_CO2": "fossil_co2",
+          "boiler_CO2": "fossil_co2"}
 CREDITS = {"EG": "eg", "Na2SO4": "na2so4"}
 
 
@@ -51,7 +52,7 @@ def characterize(streams: dict[str, bst.Stream], cf: dict[str, float], region: s
         if ID in streams:
             streams[ID].set_CF(KEY, cf[item])
     for ID, item in WASTES.items():
-        if ID in streams:
+        if ID in streams and streams[ID].isproduct():  # a residue burnt on site is no waste
             streams[ID].set_CF(KEY, -cf[landfill if ID in LANDFILLED else item])
     for ID, item in CREDITS.items():
         streams[ID].set_CF(KEY, cf[item])

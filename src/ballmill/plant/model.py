@@ -81,7 +81,7 @@ class Plant:
             return {}
         key, size = CROSS_CHECKS[u.ID]
         index = cepci(self.cfg.cost_year)
-        sizes = [a for a in u._As if a > 0] if size is None else [size(u)]  # the evaporator: body by body
+        sizes = u.body_areas_m2() if size is None else [size(u)]  # the evaporator: body by body
         parts = [price(key, each, index) for each in sizes]
         base = u.purchase_costs.get(ITEMS.get(u.ID), u.purchase_cost) / (u.cost_factor * u.material_factor)
         second = sum(p.usd for p in parts)
@@ -137,11 +137,11 @@ def plant(mill: MillSpec, cfg, econ, region: str | None = None, name: str = "pla
     econ: EconomicsConfig; region: a state code for its grid)."""
     cfg = replace(cfg)
     index = cepci(cfg.cost_year)
-    prices = prices_usd_per_kg(econ.prices_file)
+    prices = prices_usd_per_kg(econ.prices_file) | {k: v / 1000.0 for k, v in cfg.prices_usd_per_t.items()}
     prices["na2so4"] = cfg.na2so4_usd_per_t / 1000.0
     configure_utilities(prices, econ.electricity_usd_per_kwh, index)
     ps = build(mill, cfg, prices, index, name)
-    cf = factors()
+    cf = factors() | dict(cfg.ghg_kg_co2e)
     characterize(ps.streams, cf, region, cfg.landfill)
     tea = PlantTEA(ps.system, cfg, econ.hours_per_year, cfg.cost_year)
     return Plant(ps, tea, mill, cfg, econ, region, prices, cf)

@@ -34,11 +34,11 @@ def variants(p: Plant) -> pd.DataFrame:
     evap = p.ps.units["E401"]
     bodies = evap.baseline_purchase_costs["Evaporators"] / evap.cost_factor
     total = sum(evap.baseline_purchase_costs.values()) / evap.cost_factor
-    one_body = price(cfg.evaporator_cost, sum(evap._As), cepci(cfg.cost_year)).usd * evap.material_factor
+    one_body = price(cfg.evaporator_cost, sum(evap.body_areas_m2()), cepci(cfg.cost_year)).usd
+    pricings = {"evaporator as one body of the summed area": one_body,
+                "evaporator bodies at BioSTEAM's own price": evap.design_results.get("BioSTEAM bodies")}  # multi_effect
     rows = [{"variant": "base", **base}]
-    for name, new_bodies in (("evaporator as one body of the summed area", one_body),
-                             ("evaporator bodies at BioSTEAM's own price",
-                              evap.design_results["BioSTEAM bodies"] * evap.material_factor)):
+    for name, new_bodies in ((k, v * evap.material_factor) for k, v in pricings.items() if v is not None):
         saved, evap.cost_factor = evap.cost_factor, (total - bodies + new_bodies) / total
         rows.append({"variant": name, **p.evaluate()})
         evap.cost_factor = saved

@@ -5,13 +5,13 @@
     200 reaction          ball mill (PET + 2 NaOH, with the recycled PET) -> dissolver (water)
                           -> PET filter: unreacted PET back to the mill, less a purge
     300 TPA               acidifier (H2SO4) -> TPA filter (wash water) -> steam dryer -> rTPA
-    400 salt and EG       mother liquor -> multiple-effect evaporator -> Na2SO4 crystallizer
+    400 salt and EG       mother liquor -> evaporator (plant.evaporation) -> Na2SO4 crystallizer
                           (the last body, or a unit of its own) -> centrifuge -> steam dryer ->
                           Na2SO4; liquor -> EG stripper (flash) -> EG column (water off the
                           top, EG from the bottom); residue
     500 wastewater        condensates and the column's water -> treatment (priced by COD; its
                           organics oxidised to fossil CO2)
-    600 storage, cooling  acid and EG tanks, cooling tower; steam is bought (its price per kg)
+    600 storage, cooling  acid and EG tanks, cooling tower; steam bought or made on site (plant.heat)
 
 The mill's PET throughput is the designed one: the bale feed follows from the conversion per
 pass, the purge, the bale's PET content and the fines lost, so that the recycle loop closes at
@@ -24,17 +24,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import biosteam as bst
-import thermosteam as tmo
-from scipy.optimize import brentq
 
 from ..data import lookup
 from .chemicals import create_chemicals, value
-from .units import Acidifier, BallMillReactor, Evaporator, SaltCrystallizer, SizeReduction, WastewaterTreatment, scaled
+from .evaporation import EVAPORATORS
+from .heat import SOURCES
+from .units import (Acidifier, BallMillReactor, SaltCrystallizer, SizeReduction, WastewaterTreatment, scaled,
+                    vapour_fraction_for)
 
-EVAPORATOR_PRESSURES_PA = (101325.0, 60000.0, 25000.0)  # three effects, the last under vacuum
 RECYCLE_TOLERANCE_KMOL_PER_H = 1e-7
 RECYCLE_RELATIVE_TOLERANCE = 1e-9
-VAPOUR_FRACTION_TOLERANCE = 1e-12
 BRINE_UNITS = ("S301", "E401", "C401", "S401")  # acidified liquor: TPA filter, evaporator, crystallizer, centrifuge
 NAOH_DOSED_ON = {"whole_feed": lambda conversion: 1.0, "converting_pet": lambda conversion: conversion}
 
@@ -66,22 +65,6 @@ class PlantSystem:
 def fresh_pet_kg_per_h(mill_pet_kg_per_h: float, conversion: float, purge: float) -> float:
     """Clean PET the mill needs from outside at a conversion per pass and a purge of the unreacted."""
     return mill_pet_kg_per_h * (1.0 - (1.0 - purge) * (1.0 - conversion))
-
-
-def vapour_fraction_for(feed: bst.Stream, P: float, chemical: str, recovery: float) -> float:
-    """The molar vapour fraction V at which `recovery` (0-1) of the `chemical` in `feed` leaves as
-    vapour in an equilibrium flash at `P` (Pa).  V counts only the chemicals that take part in the
-    equilibrium (the salts are locked in their phase), so it is solved for, not summed."""
-    if not feed.imol[chemical]:
-        return 0.0
-    mixed = tmo.MultiStream(None, thermo=feed.thermo)
-    mixed.copy_flow(feed)
-
-    def short_of(V: float) -> float:
-        mixed.vle(P=P, V=V)
-        return mixed.imol["g", chemical] / feed.imol[chemical] - recovery
-
-    return brentq(short_of, 0.0, 1.0, xtol=VAPOUR_FRACTION_TOLERANCE)
 
 
 def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str = "plant") -> PlantSystem:
@@ -167,13 +150,7 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
 
     # 400 salt and EG
     P401 = bst.Pump("P401", ins=S301 - 1)
-    E401 = Evaporator("E401", ins=P401 - 0, outs=("concentrate", "condensate"), key=cfg.evaporator_cost, cepci=cepci,
-                      P=EVAPORATOR_PRESSURES_PA, V=cfg.evaporated_water_fraction, V_definition="Overall")
-
-    @E401.add_specification(run=True)
-    def evaporate_the_water():  # the bodies' last flash sets the split: its V for the configured share of water
-        E401.V = vapour_fraction_for(E401.ins[0], E401.P[-1], "Water", cfg.evaporated_water_fraction)
-
+    E401 = EVAPORATORS[cfg.evaporation.kind]("E401", P401 - 0, cfg, cepci)
     C401 = SaltCrystallizer("C401", ins=E401 - 0, solubility=value("Na2SO4", "solubility_kg_per_kg_water"),
                             key=cfg.crystallizer_cost, cepci=cepci, priced=cfg.crystallizer == "separate")
     S401 = scaled(bst.SolidsCentrifuge)("S401", ins=C401 - 0, outs=("salt_cake", "EG_liquor"), split={"Na2SO4": 1.0},
@@ -206,6 +183,7 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
     bst.StorageTank("T602", ins=D402 - 1, outs=eg, vessel_material="Stainless steel")
     CT = bst.CoolingTower("CT")
     CT.ins[2].price = prices["cooling_tower_chemicals"]
+    SOURCES[cfg.heat.kind]({s.ID: s for s in fs.stream}, cfg, cepci)
     system = fs.create_system("plant")
     # BioSTEAM's defaults (1 kmol/h, 1 %) leave the PET recycle (~2 kmol/h) path-dependent by ~1 % of the MSP
     system.set_tolerance(mol=RECYCLE_TOLERANCE_KMOL_PER_H, rmol=RECYCLE_RELATIVE_TOLERANCE, subsystems=True)

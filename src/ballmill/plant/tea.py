@@ -25,10 +25,11 @@ import numpy as np
 from biosteam._tea import NPV_with_sales
 
 from ..data import lookup, table
+from .units import OnSiteSteam
 
 STAFFING_FILE = "staffing.csv"
 SALES_TOLERANCE_USD_PER_YR = 1e-4  # BioSTEAM stops within 10 $/yr of sales, ~1e-6 of the MSP: start-dependent
-OSBL = (bst.StorageTank, bst.CoolingTower)  # outside the battery limits: no warehouse/site/piping add-on
+OSBL = (bst.StorageTank, bst.CoolingTower, OnSiteSteam)  # outside the battery limits: no warehouse/site/piping add-on
 
 
 def operators_per_shift(units) -> float:

@@ -6,9 +6,12 @@
 - Acidifier: a stirred tank (BioSTEAM's MixTank) with the acidification reactions.
 - Evaporator: BioSTEAM's MultiEffectEvaporator with its bodies priced by Seider's
   forced-circulation correlation, one body at a time (BioSTEAM's own price is kept beside).
+- VapourRecompressionEvaporator: one body heated by its own vapour, recompressed on electricity.
 - SaltCrystallizer: Na2SO4 above its solubility leaves the liquor as crystals.
 - WastewaterTreatment: effluent priced by its chemical oxygen demand; its organics oxidised
   to CO2 and water with the air's oxygen.
+- ElectricBoiler, ResidueBoiler: facilities that make the steam the other units ask for (all of
+  it on electricity; or what burning a waste stream covers), so less or none is bought.
 
 Every unit's `cost_factor` scales its purchase cost (the Monte Carlo draws it between the
 published correlations of data/cost_correlations.csv), and its `material_factor` (its
@@ -21,10 +24,29 @@ from typing import ClassVar
 
 import biosteam as bst
 import thermosteam as tmo
+from scipy.optimize import brentq
 
 from .correlations import price
 
 SIZE_REDUCTION_BARE_MODULE = 2.3  # as BioSTEAM's HammerMill and CrushingMill carry
+VAPOUR_FRACTION_TOLERANCE = 1e-12
+STEAM_AGENTS = ("low_pressure_steam", "medium_pressure_steam", "high_pressure_steam")
+
+
+def vapour_fraction_for(feed: bst.Stream, P: float, chemical: str, recovery: float) -> float:
+    """The molar vapour fraction V at which `recovery` (0-1) of the `chemical` in `feed` leaves as
+    vapour in an equilibrium flash at `P` (Pa).  V counts only the chemicals that take part in the
+    equilibrium (the salts are locked in their phase), so it is solved for, not summed."""
+    if not feed.imol[chemical]:
+        return 0.0
+    mixed = tmo.MultiStream(None, thermo=feed.thermo)
+    mixed.copy_flow(feed)
+
+    def short_of(V: float) -> float:
+        mixed.vle(P=P, V=V)
+        return mixed.imol["g", chemical] / feed.imol[chemical] - recovery
+
+    return brentq(short_of, 0.0, 1.0, xtol=VAPOUR_FRACTION_TOLERANCE)
 
 
 def scaled(cls):
@@ -131,10 +153,13 @@ class Evaporator(bst.MultiEffectEvaporator):
         super()._init(**kwargs)
         self.key, self.cepci = key, cepci
 
+    def body_areas_m2(self) -> list[float]:
+        return [area for area in self._As if area > 0]
+
     def _cost(self):
         own = self.baseline_purchase_costs.get("Evaporators", 0.0)
         self.design_results["BioSTEAM bodies"] = own
-        bodies = [price(self.key, area, self.cepci) for area in self._As if area > 0]
+        bodies = [price(self.key, area, self.cepci) for area in self.body_areas_m2()]
         self.baseline_purchase_costs["Evaporators"] = sum(p.usd for p in bodies)
         self.below_range = any(p.below_range for p in bodies)
         self.parallel["Evaporators"] = 1
@@ -172,6 +197,152 @@ class SaltCrystallizer(bst.Unit):
         self.below_range = p.below_range and self.priced
 
 
+@scaled
+class VapourRecompressionEvaporator(bst.Unit):
+    """Mechanical vapour recompression: one forced-circulation body at `P` (Pa) sends
+    `water_share` of the feed's water to the condensate (outs[1]), the rest with the salts to the
+    concentrate (outs[0]); its vapour, recompressed on `kwh_per_t_water` of electricity, heats it
+    (the feed preheated by the condensate: no steam).  The body's area: the latent heat over
+    `u_w_per_m2_k` x `temperature_difference_k`, priced by the correlation `body_key`; the
+    compressor by `compressor_key` (kW of shaft power); both at `cepci`."""
+
+    _N_ins = 1
+    _N_outs = 2
+    _F_BM_default: ClassVar[dict] = {"Evaporators": bst.MultiEffectEvaporator._F_BM_default["Evaporators"],
+                                     "Compressor": bst.units.IsentropicCompressor._F_BM_default["Compressor(s)"]}
+    _units: ClassVar[dict] = {"Area": "m2", "Water evaporated": "kg/hr", "Power": "kW"}
+
+    def _init(self, P: float, water_share: float, kwh_per_t_water: float, temperature_difference_k: float,
+              u_w_per_m2_k: float, body_key: str, compressor_key: str, cepci: float):
+        self.P, self.water_share, self.kwh_per_t_water = P, water_share, kwh_per_t_water
+        self.temperature_difference_k, self.u_w_per_m2_k = temperature_difference_k, u_w_per_m2_k
+        self.body_key, self.compressor_key, self.cepci = body_key, compressor_key, cepci
+
+    def _run(self):
+        feed = self.ins[0]
+        concentrate, condensate = self.outs
+        mixed = tmo.MultiStream(None, thermo=feed.thermo)
+        mixed.copy_flow(feed)
+        mixed.vle(P=self.P, V=vapour_fraction_for(feed, self.P, "Water", self.water_share))
+        concentrate.mol[:] = mixed.imol["l"]
+        condensate.mol[:] = mixed.imol["g"]
+        concentrate.phase = condensate.phase = "l"
+        concentrate.T = condensate.T = mixed.T
+        concentrate.P = condensate.P = self.P
+
+    def body_areas_m2(self) -> list[float]:
+        return [self.design_results["Area"]]
+
+    def _design(self):
+        condensate = self.outs[1]
+        latent_kw = condensate.Hvap / 3600.0  # kJ/h -> kW
+        self.design_results["Water evaporated"] = evaporated = condensate.F_mass
+        self.design_results["Area"] = latent_kw * 1000.0 / (self.u_w_per_m2_k * self.temperature_difference_k)
+        self.design_results["Power"] = power = self.kwh_per_t_water * evaporated / 1000.0
+        self.add_power_utility(power)
+
+    def _cost(self):
+        body = price(self.body_key, self.design_results["Area"], self.cepci)
+        compressor = price(self.compressor_key, self.design_results["Power"], self.cepci)
+        self.baseline_purchase_costs["Evaporators"] = body.usd
+        self.baseline_purchase_costs["Compressor"] = compressor.usd
+        self.below_range = body.below_range or compressor.below_range
+
+
+class OnSiteSteam(bst.Facility, isabstract=True):
+    """Makes `share()` of the steam the plant's other units ask for (each steam agent's utility
+    mixed and reversed, so that steam is not bought); sized and priced per kW of steam heat by
+    the correlation `key` at `cepci`."""
+
+    network_priority = 1
+    _units: ClassVar[dict] = {"Steam heat": "kW"}
+    _F_BM_default: ClassVar[dict] = {"Boiler": 1.0}
+
+    def _init(self, key: str, cepci: float):
+        self.key, self.cepci = key, cepci
+
+    def steam_kw(self) -> float:
+        """Steam heat the other units ask for (kW)."""
+        return sum(hu.duty for u in self.other_units for hu in u.heat_utilities
+                   if hu.agent is not None and hu.agent.ID in STEAM_AGENTS and hu.duty > 0) / 3600.0
+
+    def _design(self):
+        asked = self.steam_kw()
+        made = self.steam_made_kw(asked)
+        for agent in STEAM_AGENTS:
+            users = [hu for u in self.other_units for hu in u.heat_utilities if hu.agent is not None
+                     and hu.agent.ID == agent and hu.duty > 0]
+            if users and asked:
+                hu = self.create_heat_utility()
+                hu.mix_from(users)
+                hu.scale(made / asked)
+                hu.reverse()
+        self.design_results["Steam heat"] = made
+
+    def _cost(self):
+        p = price(self.key, self.design_results["Steam heat"], self.cepci)
+        self.baseline_purchase_costs["Boiler"] = p.usd
+        self.below_range = p.below_range
+
+
+class ElectricBoiler(OnSiteSteam):
+    """All the plant's steam from electricity at `efficiency` (steam heat / electricity)."""
+
+    _N_ins = 0
+    _N_outs = 0
+
+    def _init(self, key: str, cepci: float, efficiency: float):
+        super()._init(key, cepci)
+        self.efficiency = efficiency
+
+    def _run(self):
+        pass
+
+    def steam_made_kw(self, asked_kw: float) -> float:
+        self.add_power_utility(asked_kw / self.efficiency)
+        return asked_kw
+
+
+class ResidueBoiler(OnSiteSteam):
+    """Burns its fuel (ins[0], a waste stream) with the air's oxygen (ins[1]) to water (outs[0])
+    and CO2 (outs[1]): its lower heating value (`lhv_mj_per_kg`: chemical -> MJ/kg) x `efficiency`
+    makes steam, up to what the plant asks for; the rest is bought.  Installed at 1.8 x purchase
+    (Humbird et al. 2011's boiler)."""
+
+    _N_ins = 2
+    _N_outs = 2
+    _F_BM_default: ClassVar[dict] = {"Boiler": 1.8}
+
+    def _init(self, key: str, cepci: float, efficiency: float, lhv_mj_per_kg: dict[str, float]):
+        super()._init(key, cepci)
+        self.efficiency, self.lhv_mj_per_kg = efficiency, lhv_mj_per_kg
+
+    def _run(self):
+        fuel, air = self.ins
+        self.fuel_kw = sum(fuel.imass[c] * mj for c, mj in self.lhv_mj_per_kg.items()) / 3.6
+        oxidise(fuel, air, *self.outs)
+
+    def steam_made_kw(self, asked_kw: float) -> float:
+        return min(asked_kw, self.fuel_kw * self.efficiency)
+
+
+def oxidise(feed: bst.Stream, air: bst.Stream, water_out: bst.Stream, co2_out: bst.Stream) -> None:
+    """`feed` into `water_out` with its organics (CxHyOz) oxidised: their water joins it, their CO2
+    goes to `co2_out`, the oxygen they take is set on `air`."""
+    water_out.copy_like(feed)
+    co2_out.empty()
+    co2_out.phase = "g"
+    air.empty()
+    for c in feed.available_chemicals:
+        n = feed.imol[c.ID]
+        if cod_kg_per_kg(c) and n:
+            atoms = c.atoms
+            water_out.imol[c.ID] = 0.0
+            water_out.imol["Water"] += n * atoms["H"] / 2
+            co2_out.imol["CO2"] += n * atoms["C"]
+            air.imol["O2"] += n * (atoms["C"] + atoms["H"] / 4 - atoms.get("O", 0) / 2)
+
+
 def cod_kg_per_kg(chemical) -> float:
     """Chemical oxygen demand of a CxHyOz chemical: (x + y/4 - z/2) mol O2 per mol (0 for others)."""
     atoms = chemical.atoms
@@ -196,18 +367,8 @@ class WastewaterTreatment(bst.Unit):
     def _run(self):
         effluent, air = self.ins
         treated, offgas = self.outs
-        treated.copy_like(effluent)
-        offgas.empty()
-        offgas.phase = "g"
-        air.empty()
-        self.cod_kg_per_h = sum(treated.imass[c.ID] * cod_kg_per_kg(c) for c in treated.available_chemicals)
-        for c in treated.available_chemicals:
-            if cod_kg_per_kg(c) and treated.imol[c.ID]:
-                n, atoms = treated.imol[c.ID], c.atoms
-                treated.imol[c.ID] = 0.0
-                treated.imol["Water"] += n * atoms["H"] / 2
-                offgas.imol["CO2"] += n * atoms["C"]
-                air.imol["O2"] += n * (atoms["C"] + atoms["H"] / 4 - atoms.get("O", 0) / 2)
+        self.cod_kg_per_h = sum(effluent.imass[c.ID] * cod_kg_per_kg(c) for c in effluent.available_chemicals)
+        oxidise(effluent, air, treated, offgas)
         treated.price = -self.usd_per_kg_cod * self.cod_kg_per_h / treated.F_mass if treated.F_mass else 0.0
 
     def _design(self):

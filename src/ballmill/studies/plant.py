@@ -29,10 +29,11 @@ def check_plant_tables(plant, prices_file: str) -> None:
     """The plant's data tables hold the columns and rows its config names (before BioSTEAM is
     imported)."""
     keys = set(table("cost_correlations.csv").key)
-    for name in ("granulator_cost", "pulveriser_cost", "evaporator_cost", "crystallizer_cost"):
-        if getattr(plant, name) not in keys:
-            raise ConfigError(f"plant.{name}={getattr(plant, name)!r} is not a row of data/cost_correlations.csv; "
-                              f"have {sorted(keys)}")
+    rows = {f"plant.{name}": getattr(plant, name) for name in ("granulator_cost", "pulveriser_cost", "evaporator_cost",
+                                                                "crystallizer_cost")}
+    for name, key in (rows | {"plant.evaporation.compressor_cost": plant.evaporation.compressor_cost}).items():
+        if key not in keys:
+            raise ConfigError(f"{name}={key!r} is not a row of data/cost_correlations.csv; have {sorted(keys)}")
     for name, columns in ((prices_file, ["item", "price_usd_per_t"]), ("ghg_factors.csv", ["item", "kg_co2e"]),
                           ("staffing.csv", ["unit", "workers_per_unit_per_shift"]),
                           ("plant_chemicals.csv", ["chemical", "property", "value"]),
@@ -46,6 +47,11 @@ def check_plant_tables(plant, prices_file: str) -> None:
         raise ConfigError(f"economics.prices_file={prices_file}: no price for {missing} (the plant needs them)")
     lookup("cepci.csv", "year", plant.cost_year, "cepci")
     lookup("material_factors.csv", "material", plant.brine_material, "factor")
+    for name, file, column in (("prices_usd_per_t", prices_file, "item"), ("ghg_kg_co2e", "ghg_factors.csv", "item")):
+        unknown = sorted(set(getattr(plant, name)) - set(table(file)[column]))
+        if unknown:
+            raise ConfigError(f"plant.{name}: no item {unknown} in data/{file}; have {sorted(table(file)[column])}")
+
 
 
 def plan_plant(s: Scenario) -> Plan:
