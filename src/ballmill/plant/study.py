@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..config import EvaporationConfig, HeatConfig
 from . import uncertainty
 from .correlations import price
 from .model import Plant, plant
@@ -76,6 +77,9 @@ CONFIG_VARIANTS = {
     "no start-up period": {"startup_months": 0.0},
     "no debt (all equity)": {"loan_fraction": 0.0},
     "fine powder instead of flake (pulveriser)": {"feed_form": "powder"},
+    "evaporation by vapour recompression (plant/evaporation=mvr)": {"evaporation": EvaporationConfig(kind="mvr")},
+    "steam from an electric boiler (plant/heat=electric_boiler)": {"heat": HeatConfig(kind="electric_boiler")},
+    "steam from the sorted-out plastics (plant/heat=residue_boiler)": {"heat": HeatConfig(kind="residue_boiler")},
 }
 
 
