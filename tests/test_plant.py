@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from ballmill.config import EconomicsConfig, EvaporationConfig, HeatConfig, PlantConfig
+from ballmill.config import EconomicsConfig, EvaporationConfig, HeatConfig, PlantConfig, SodiumConfig
 from ballmill.plant import uncertainty
 from ballmill.plant.correlations import price
 from ballmill.plant.model import plant
@@ -303,3 +303,26 @@ def test_prices_and_factors_are_replaced_one_by_one_from_the_config():
     record = p.record(p.evaluate()["msp_usd_per_kg"])
     assert record["msp_naoh_usd_per_kg"] == pytest.approx(s["NaOH"].F_mass * 0.700 / s["rTPA"].F_mass, rel=1e-12)
     assert record["gwp_naoh_kg_per_kg"] == pytest.approx(s["NaOH"].F_mass * 1.25 / s["rTPA"].F_mass, rel=1e-12)
+
+
+def test_salt_splitting_returns_naoh_and_acid_for_its_electricity_steam_and_membranes():
+    """Na2SO4 -> 2 NaOH + H2SO4 at 4.72 kWh/kg NaOH; membrane area = 2 n_Na2SO4 x Faraday / 0.364
+    / 500 A/m2, priced 1,200 $/m2 (2009, CE 521.9) x 2 for the stack; the products' water (at
+    8 wt %) evaporated in three effects: its latent heat / 3 on steam; NaOH and H2SO4 credited at
+    the bought prices and factors."""
+    p = own_plant("bpmed", replace(PlantConfig(), sodium=SodiumConfig(kind="bpmed")))
+    u, s = p.ps.units["U401"], p.ps.streams
+    n = s["Na2SO4"].imol["Na2SO4"]  # kmol/h
+    naoh = s["recovered_NaOH"]
+    assert naoh.imol["NaOH"] == pytest.approx(2 * n, rel=1e-12)
+    assert u.power_utility.rate == pytest.approx(4.72 * naoh.F_mass, rel=1e-12)
+    area = 2 * n * 1000 / 3600 * 96485.332 / 0.364 / 500.0
+    assert u.design_results["Membrane area"] == pytest.approx(area, rel=1e-9)
+    assert u.purchase_cost == pytest.approx(2 * 1200 * area * CEPCI_2021 / 521.9, rel=1e-9)
+    water = s["splitting_condensate"].imol["Water"]
+    products = naoh.F_mass + s["recovered_H2SO4"].F_mass
+    assert s["splitting_water"].F_mass == pytest.approx(products * (1 / 0.08 - 1) + 2 * n * 18.01528
+                                                        - s["Na2SO4"].imass["Water"], rel=1e-9)
+    assert u.heat_utilities[0].unit_duty == pytest.approx(water * 40_650 / 3, rel=2e-3)  # 40.65 kJ/mol at 100 C
+    parts = p.footprint()
+    assert parts["recovered_NaOH_credit"] == pytest.approx(-naoh.F_mass * 2.05 / p.rtpa.F_mass, rel=1e-9)

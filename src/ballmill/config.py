@@ -469,6 +469,23 @@ class HeatConfig:
 
 
 @dataclass
+class SodiumConfig:
+    """What becomes of the sodium (plant/sodium=salt|bpmed; the options: plant/sodium.py).  salt:
+    Na2SO4 leaves at plant.na2so4_usd_per_t; bpmed: bipolar-membrane electrodialysis splits it
+    back into NaOH and H2SO4 (Na2SO4 + 2 H2O -> 2 NaOH + H2SO4), which the plant then buys less of,
+    their water evaporated in effects on steam."""
+
+    kind: str = field(default="salt", metadata={"choices": ("salt", "bpmed"), "doc": "sold salt, or split back"})
+    kwh_per_kg_naoh: float = rng(4.72, 1.0, 20.0, doc="bpmed: the stack's electricity per kg NaOH made")
+    current_efficiency: float = rng(0.364, 0.1, 1.0, doc="bpmed: NaOH made / the charge passed (Faraday)")
+    current_density_a_per_m2: float = rng(500.0, 50.0, 2000.0, doc="bpmed: current per m2 of bipolar membrane")
+    stack_to_membrane: float = rng(2.0, 1.0, 10.0, doc="bpmed: the stack's price / its bipolar membranes'")
+    membrane_life_yr: int = rng(3, 1, 30, doc="bpmed: years before the stack is bought again")
+    product_wt_fraction: float = rng(0.08, 0.01, 0.5, doc="bpmed: NaOH and H2SO4 in their dilute solutions")
+    concentrating_effects: int = rng(3, 1, 8, doc="bpmed: effects that evaporate the solutions' water on steam")
+
+
+@dataclass
 class PlantConfig:
     """The plant around the mill, on BioSTEAM: feed preparation, the units' design choices, the
     cost year, NREL's TEA convention, the staffing rule and the Monte Carlo (defaults and their
@@ -568,6 +585,7 @@ class PlantConfig:
     evaporation: EvaporationConfig = field(default_factory=EvaporationConfig, metadata={
         "doc": "the evaporator (plant/evaporation=...)"})
     heat: HeatConfig = field(default_factory=HeatConfig, metadata={"doc": "the steam's source (plant/heat=...)"})
+    sodium: SodiumConfig = field(default_factory=SodiumConfig, metadata={"doc": "the salt's fate (plant/sodium=...)"})
     prices_usd_per_t: dict[str, float] = field(default_factory=dict, metadata={
         "doc": "prices that replace the prices file's, by item ($/t; steam per t, electricity: economics), e.g. "
                "+plant.prices_usd_per_t.naoh=700"})
@@ -840,6 +858,7 @@ def register() -> None:
     cs.store(group="plant", name="base_plant", node=PlantConfig)
     cs.store(group="plant/evaporation", name="base_evaporation", node=EvaporationConfig)
     cs.store(group="plant/heat", name="base_heat", node=HeatConfig)
+    cs.store(group="plant/sodium", name="base_sodium", node=SodiumConfig)
     cs.store(group="dem", name="base_dem", node=DemConfig)
     cs.store(group="optimiser", name="base_optimiser", node=OptimiserConfig)
     for name, node in COMMANDS.items():

@@ -21,11 +21,12 @@ KEY = "GWP"
 FILE = "ghg_factors.csv"
 STEAM = ("low_pressure_steam", "medium_pressure_steam", "high_pressure_steam")
 INPUTS = {"bales": "pet_bale", "NaOH": "naoh", "sulfuric_acid": "h2so4", "dissolution_water": "process_water",
-          "wash_water": "process_water", "cooling_tower_makeup_water": "process_water"}  # and each steam agent
+          "wash_water": "process_water", "cooling_tower_makeup_water": "process_water",
+          "splitting_water": "process_water"}  # and each steam agent
 LANDFILLED = ("sorting_residue", "grinding_fines", "purged_PET", "residue")  # plastics and salt
 WASTES = {**dict.fromkeys(LANDFILLED, "landfill"), "treated_water": "wastewater", "treatment_CO2": "fossil_co2",
           "boiler_CO2": "fossil_co2"}
-CREDITS = {"EG": "eg", "Na2SO4": "na2so4"}
+CREDITS = {"EG": "eg", "Na2SO4": "na2so4", "recovered_NaOH": "naoh", "recovered_H2SO4": "h2so4"}
 
 
 def factors() -> dict[str, float]:
@@ -55,7 +56,8 @@ def characterize(streams: dict[str, bst.Stream], cf: dict[str, float], region: s
         if ID in streams and streams[ID].isproduct():  # a residue burnt on site is no waste
             streams[ID].set_CF(KEY, -cf[landfill if ID in LANDFILLED else item])
     for ID, item in CREDITS.items():
-        streams[ID].set_CF(KEY, cf[item])
+        if ID in streams and streams[ID].isproduct():
+            streams[ID].set_CF(KEY, cf[item])
     for agent in STEAM:
         bst.HeatUtility.set_CF(agent, KEY, cf["steam"], basis="MJ")
     bst.PowerUtility.set_CF(KEY, consumption=electricity_kg_per_kwh(region, cf["electricity_us"]))
@@ -73,7 +75,8 @@ def breakdown_kg_per_kg(system: bst.System, streams: dict[str, bst.Stream], prod
     parts["steam"] = sum(system.get_net_heat_utility_impact(agent, KEY) for agent in STEAM)
     parts["electricity"] = system.get_net_electricity_impact(KEY)
     for ID in CREDITS:
-        parts[f"{ID}_credit"] = -system.get_material_impact(streams[ID], KEY)
+        if ID in streams and streams[ID].isproduct():
+            parts[f"{ID}_credit"] = -system.get_material_impact(streams[ID], KEY)
     out = {k: v / kg_per_yr for k, v in parts.items()}
     out["total"] = system.get_net_impact(KEY) / kg_per_yr
     return out

@@ -126,8 +126,8 @@ class Plant:
                 "virgin_tpa_usd_per_kg": self.prices["tpa"], "virgin_tpa_gwp_kg_per_kg": self.cf["virgin_tpa"]}
         parts = self.footprint()
         out |= {f"gwp_{k.lower()}_kg_per_kg": v for k, v in parts.items()}
-        products = {"rTPA": (self.rtpa.F_mass, self.prices["tpa"]), "EG": (streams["EG"].F_mass, streams["EG"].price),
-                    "Na2SO4": (streams["Na2SO4"].F_mass, max(0.0, streams["Na2SO4"].price))}
+        products = {"rTPA": (self.rtpa.F_mass, self.prices["tpa"])} | {
+            ID: (streams[ID].F_mass, max(0.0, streams[ID].price)) for ID in ("EG", "Na2SO4") if streams[ID].isproduct()}
         out |= {f"gwp_{k}_allocation_kg_per_kg": v for k, v in allocation_kg_per_kg(parts, products).items()}
         return out
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..config import EvaporationConfig, HeatConfig
+from ..config import EvaporationConfig, HeatConfig, SodiumConfig
 from . import uncertainty
 from .correlations import price
 from .model import Plant, plant
@@ -80,6 +80,7 @@ CONFIG_VARIANTS = {
     "evaporation by vapour recompression (plant/evaporation=mvr)": {"evaporation": EvaporationConfig(kind="mvr")},
     "steam from an electric boiler (plant/heat=electric_boiler)": {"heat": HeatConfig(kind="electric_boiler")},
     "steam from the sorted-out plastics (plant/heat=residue_boiler)": {"heat": HeatConfig(kind="residue_boiler")},
+    "Na2SO4 split back to NaOH and H2SO4 (plant/sodium=bpmed)": {"sodium": SodiumConfig(kind="bpmed")},
 }
 
 

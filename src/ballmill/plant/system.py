@@ -29,6 +29,7 @@ from ..data import lookup
 from .chemicals import create_chemicals, value
 from .evaporation import EVAPORATORS
 from .heat import SOURCES
+from .sodium import FATES
 from .units import (Acidifier, BallMillReactor, SaltCrystallizer, SizeReduction, WastewaterTreatment, scaled,
                     vapour_fraction_for)
 
@@ -183,6 +184,7 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
     bst.StorageTank("T602", ins=D402 - 1, outs=eg, vessel_material="Stainless steel")
     CT = bst.CoolingTower("CT")
     CT.ins[2].price = prices["cooling_tower_chemicals"]
+    FATES[cfg.sodium.kind]({s.ID: s for s in fs.stream}, cfg, prices, cepci)
     SOURCES[cfg.heat.kind]({s.ID: s for s in fs.stream}, cfg, cepci)
     system = fs.create_system("plant")
     # BioSTEAM's defaults (1 kmol/h, 1 %) leave the PET recycle (~2 kmol/h) path-dependent by ~1 % of the MSP

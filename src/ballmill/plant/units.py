@@ -10,6 +10,7 @@
 - SaltCrystallizer: Na2SO4 above its solubility leaves the liquor as crystals.
 - WastewaterTreatment: effluent priced by its chemical oxygen demand; its organics oxidised
   to CO2 and water with the air's oxygen.
+- SaltSplitting: bipolar-membrane electrodialysis of Na2SO4 back to NaOH and H2SO4.
 - ElectricBoiler, ResidueBoiler: facilities that make the steam the other units ask for (all of
   it on electricity; or what burning a waste stream covers), so less or none is bought.
 
@@ -247,6 +248,63 @@ class VapourRecompressionEvaporator(bst.Unit):
         self.baseline_purchase_costs["Evaporators"] = body.usd
         self.baseline_purchase_costs["Compressor"] = compressor.usd
         self.below_range = body.below_range or compressor.below_range
+
+
+FARADAY_C_PER_MOL = 96485.332
+
+
+@scaled
+class SaltSplitting(bst.Unit):
+    """Bipolar-membrane electrodialysis: Na2SO4 (ins[0]) + 2 H2O (ins[1], with the water that
+    dilutes the products to `product_wt_fraction`) -> 2 NaOH (outs[0]) + H2SO4 (outs[1]) on
+    `kwh_per_kg_naoh`; the products' water evaporated (outs[2], the condensate) in `effects`
+    effects on steam.
+    Bipolar membrane: the current (NaOH made x Faraday / `current_efficiency`) over
+    `current_density_a_per_m2`, priced by the correlation `key` (m2) x `stack_to_membrane`,
+    bought again every `life_yr` years."""
+
+    _N_ins = 2
+    _N_outs = 3
+    _units: ClassVar[dict] = {"Membrane area": "m2", "Power": "kW", "Water evaporated": "kg/hr"}
+    _F_BM_default: ClassVar[dict] = {"Stack": 1.0}
+
+    def _init(self, kwh_per_kg_naoh: float, current_efficiency: float, current_density_a_per_m2: float,
+              stack_to_membrane: float, life_yr: int, product_wt_fraction: float, effects: int, key: str,
+              cepci: float):
+        self.kwh_per_kg_naoh, self.current_efficiency = kwh_per_kg_naoh, current_efficiency
+        self.current_density_a_per_m2, self.stack_to_membrane = current_density_a_per_m2, stack_to_membrane
+        self.product_wt_fraction, self.effects, self.key, self.cepci = product_wt_fraction, effects, key, cepci
+        self._default_equipment_lifetime = {"Stack": life_yr}
+
+    def _run(self):
+        salt, water = self.ins
+        naoh, acid, condensate = self.outs
+        n = salt.imol["Na2SO4"]
+        condensate.copy_flow(salt)  # what came with the salt but Na2SO4 and H2SO4 (EG, TPA) leaves with the condensate
+        condensate.imol["Na2SO4", "H2SO4"] = 0.0
+        naoh.empty()
+        acid.empty()
+        naoh.imol["NaOH"] = 2 * n
+        acid.imol["H2SO4"] = n + salt.imol["H2SO4"]
+        dilution = (naoh.F_mass + acid.F_mass) * (1.0 / self.product_wt_fraction - 1.0) / 18.01528  # kmol/h
+        water.imol["Water"] = max(0.0, 2 * n - salt.imol["Water"]) + dilution
+        condensate.imol["Water"] = salt.imol["Water"] + water.imol["Water"] - 2 * n
+
+    def _design(self):
+        naoh_kg = self.outs[0].imass["NaOH"]
+        current_a = self.outs[0].imol["NaOH"] / 3.6 * FARADAY_C_PER_MOL / self.current_efficiency  # kmol/h -> mol/s
+        self.design_results["Membrane area"] = current_a / self.current_density_a_per_m2
+        self.design_results["Power"] = power = self.kwh_per_kg_naoh * naoh_kg
+        self.design_results["Water evaporated"] = water = self.outs[2].imass["Water"]
+        self.add_power_utility(power)
+        evaporated = self.outs[2]
+        latent_kj_per_kmol = evaporated.chemicals.Water.Hvap(373.15)  # J/mol = kJ/kmol
+        self.add_heat_utility(evaporated.imol["Water"] * latent_kj_per_kmol / self.effects, T_in=373.15)
+
+    def _cost(self):
+        p = price(self.key, self.design_results["Membrane area"], self.cepci)
+        self.baseline_purchase_costs["Stack"] = p.usd * self.stack_to_membrane
+        self.below_range = p.below_range
 
 
 class OnSiteSteam(bst.Facility, isabstract=True):
