@@ -172,6 +172,8 @@ RUN = [
      r"plant.evaporation.compressor_cost='fan' is not a row of data/cost_correlations.csv"),
     (["study=plant", "plant/sodium=bpmed", "plant.sodium.current_efficiency=1.5"],
      r"plant.sodium.current_efficiency=1.5 is outside the allowed range \[0.1, 1.0\]"),
+    (["study=plant", "plant.what_it_takes=[price.gold]"],
+     r"plant.what_it_takes: \['price.gold'\] are not parameters of data/plant_uncertainty.csv"),
     (["study=plant", "plant/heat=nuclear"], r"Could not find 'plant/heat/nuclear'; available: bought_steam, electric_boiler"),
     (["study=plant", "plant.landfill=sea"], r"plant.landfill='sea' is not one of \['landfill_low_organic', 'landfill'\]"),
     (["study=plant", "scaleup.naoh_feed_kg_per_h=400"], r"study=plant: give the NaOH as scaleup.naoh_to_stoichiometric"),

@@ -17,6 +17,7 @@ from ballmill.plant.correlations import price
 from ballmill.plant.model import plant
 from ballmill.plant.study import variants
 from ballmill.plant.system import MillSpec, fresh_pet_kg_per_h
+from ballmill.plant.what_it_takes import break_even
 
 CEPCI_2021 = 708.8  # data/cepci.csv: the plant's cost year
 MILL = MillSpec(1313.6, 0.7487, 1.0, 35.0, 130_000.0, {})  # the BPR 19 mill at 1000 kg/h of fresh PET
@@ -326,3 +327,15 @@ def test_salt_splitting_returns_naoh_and_acid_for_its_electricity_steam_and_memb
     assert u.heat_utilities[0].unit_duty == pytest.approx(water * 40_650 / 3, rel=2e-3)  # 40.65 kJ/mol at 100 C
     parts = p.footprint()
     assert parts["recovered_NaOH_credit"] == pytest.approx(-naoh.F_mass * 2.05 / p.rtpa.F_mass, rel=1e-9)
+
+
+def test_what_it_takes_finds_the_values_that_meet_virgin_tpa():
+    """The wage at which the MSP is virgin TPA's 1.143 $/kg and the NaOH factor at which the
+    footprint is virgin PTA's 1.60 kg CO2e/kg: plants built at those values meet them."""
+    t = break_even(own_plant("levers"), ["plant.operator_wage_usd_per_yr", "ghg.naoh"], 10.0).set_index("lever")
+    wage, naoh = t.loc["plant.operator_wage_usd_per_yr", "msp_break_even"], t.loc["ghg.naoh", "gwp_break_even"]
+    assert np.isnan(t.loc["ghg.naoh", "msp_break_even"])  # a factor moves no money
+    at_wage = own_plant("at_wage", replace(PlantConfig(), operator_wage_usd_per_yr=wage))
+    assert at_wage.evaluate()["msp_usd_per_kg"] == pytest.approx(1.143, rel=1e-6)
+    at_factor = own_plant("at_factor", replace(PlantConfig(), ghg_kg_co2e={"naoh": naoh}))
+    assert at_factor.evaluate()["gwp_kg_per_kg"] == pytest.approx(1.60, rel=1e-6)

@@ -10,6 +10,7 @@ first, then the options of the other commands (track, render, calibrate, report,
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import typing
 from dataclasses import dataclass, field
@@ -451,7 +452,7 @@ class EvaporationConfig:
 
     def __post_init__(self):
         p = self.effect_pressures_pa
-        if not 1 <= len(p) <= 6 or any(b >= a for a, b in zip(p, p[1:])) or not 5000.0 <= min(p) <= max(p) <= 5e5:
+        if not 1 <= len(p) <= 6 or any(b >= a for a, b in itertools.pairwise(p)) or not 5000.0 <= min(p) <= max(p) <= 5e5:
             raise ConfigError(f"plant.evaporation.effect_pressures_pa={p}: give one to six falling pressures within "
                               "[5000.0, 500000.0] Pa")
 
@@ -592,6 +593,14 @@ class PlantConfig:
     ghg_kg_co2e: dict[str, float] = field(default_factory=dict, metadata={
         "doc": "greenhouse-gas factors that replace data/ghg_factors.csv's, by item (its unit: kg, MJ or kWh), e.g. "
                "+plant.ghg_kg_co2e.electricity_us=0.1"})
+    what_it_takes: list[str] = field(default_factory=lambda: [
+        "price.naoh", "price.pet_bale", "price.steam_factor", "economics.electricity_usd_per_kwh",
+        "plant.operator_wage_usd_per_yr", "plant.dissolution_water_kg_per_kg_na2tpa", "ghg.naoh", "ghg.steam",
+        "ghg.electricity_us", "ghg.pet_bale"], metadata={
+        "doc": "levers whose break-even values (MSP = virgin TPA's price, footprint = virgin PTA's) the plant study "
+               "solves for (what_it_takes.csv): parameters of data/plant_uncertainty.csv; [] for none"})
+    what_it_takes_span: float = rng(10.0, 1.0, 100.0,
+                                    doc="each lever is searched between its base over and times this (within its range)")
     monte_carlo_draws: int = rng(2000, 0, 100_000, doc="draws of the Monte Carlo (0: none)")
     seed: int = rng(0, 0, None, doc="seed of the Monte Carlo draws")
 

@@ -21,6 +21,7 @@ from .correlations import price
 from .model import Plant, plant
 from .system import MillSpec
 from .tea import cepci
+from .what_it_takes import break_even
 
 log = logging.getLogger(__name__)
 BAND = (5, 50, 95)  # percentiles of the Monte Carlo reported beside the base value
@@ -96,6 +97,11 @@ def run(mill: MillSpec, cfg, econ, region: str | None, power_se_kw: float, out_d
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the base case's design warnings are recorded; its variants' would repeat them
         variants(p).to_csv(out_dir / "variants.csv", index=False)
+        if cfg.what_it_takes:
+            own = plant(mill, cfg, econ, region, name="what_it_takes")  # its levers leave the base plant as it is
+            own.evaluate()
+            break_even(own, cfg.what_it_takes, cfg.what_it_takes_span).to_csv(out_dir / "what_it_takes.csv",
+                                                                                index=False)
         m = uncertainty.model(p, power_se_kw)
         uncertainty.tornado(m).to_csv(out_dir / "tornado.csv", index=False)
         if cfg.monte_carlo_draws:

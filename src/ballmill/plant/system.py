@@ -30,8 +30,15 @@ from .chemicals import create_chemicals, value
 from .evaporation import EVAPORATORS
 from .heat import SOURCES
 from .sodium import FATES
-from .units import (Acidifier, BallMillReactor, SaltCrystallizer, SizeReduction, WastewaterTreatment, scaled,
-                    vapour_fraction_for)
+from .units import (
+    Acidifier,
+    BallMillReactor,
+    SaltCrystallizer,
+    SizeReduction,
+    WastewaterTreatment,
+    scaled,
+    vapour_fraction_for,
+)
 
 RECYCLE_TOLERANCE_KMOL_PER_H = 1e-7
 RECYCLE_RELATIVE_TOLERANCE = 1e-9

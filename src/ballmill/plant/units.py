@@ -295,9 +295,9 @@ class SaltSplitting(bst.Unit):
         current_a = self.outs[0].imol["NaOH"] / 3.6 * FARADAY_C_PER_MOL / self.current_efficiency  # kmol/h -> mol/s
         self.design_results["Membrane area"] = current_a / self.current_density_a_per_m2
         self.design_results["Power"] = power = self.kwh_per_kg_naoh * naoh_kg
-        self.design_results["Water evaporated"] = water = self.outs[2].imass["Water"]
-        self.add_power_utility(power)
         evaporated = self.outs[2]
+        self.design_results["Water evaporated"] = evaporated.imass["Water"]
+        self.add_power_utility(power)
         latent_kj_per_kmol = evaporated.chemicals.Water.Hvap(373.15)  # J/mol = kJ/kmol
         self.add_heat_utility(evaporated.imol["Water"] * latent_kj_per_kmol / self.effects, T_in=373.15)
 

@@ -47,6 +47,11 @@ def check_plant_tables(plant, prices_file: str) -> None:
         raise ConfigError(f"economics.prices_file={prices_file}: no price for {missing} (the plant needs them)")
     lookup("cepci.csv", "year", plant.cost_year, "cepci")
     lookup("material_factors.csv", "material", plant.brine_material, "factor")
+    levers = set(table("plant_uncertainty.csv").parameter)
+    unknown = sorted(set(plant.what_it_takes) - levers)
+    if unknown:
+        raise ConfigError(f"plant.what_it_takes: {unknown} are not parameters of data/plant_uncertainty.csv; have "
+                          f"{sorted(levers)}")
     for name, file, column in (("prices_usd_per_t", prices_file, "item"), ("ghg_kg_co2e", "ghg_factors.csv", "item")):
         unknown = sorted(set(getattr(plant, name)) - set(table(file)[column]))
         if unknown:
