@@ -587,10 +587,10 @@ class PlantConfig:
         "doc": "the evaporator (plant/evaporation=...)"})
     heat: HeatConfig = field(default_factory=HeatConfig, metadata={"doc": "the steam's source (plant/heat=...)"})
     sodium: SodiumConfig = field(default_factory=SodiumConfig, metadata={"doc": "the salt's fate (plant/sodium=...)"})
-    prices_usd_per_t: dict[str, float] = field(default_factory=dict, metadata={
+    prices_usd_per_t: dict[str, float] = field(default_factory=dict, metadata={"range": (0.0, 1e5, False, False),
         "doc": "prices that replace the prices file's, by item ($/t; steam per t, electricity: economics), e.g. "
                "+plant.prices_usd_per_t.naoh=700"})
-    ghg_kg_co2e: dict[str, float] = field(default_factory=dict, metadata={
+    ghg_kg_co2e: dict[str, float] = field(default_factory=dict, metadata={"range": (0.0, 100.0, False, False),
         "doc": "greenhouse-gas factors that replace data/ghg_factors.csv's, by item (its unit: kg, MJ or kWh), e.g. "
                "+plant.ghg_kg_co2e.electricity_us=0.1"})
     what_it_takes: list[str] = field(default_factory=lambda: [
@@ -908,6 +908,10 @@ def walk(schema: type, prefix: str = ""):
 
 
 def _check_field(path: str, value, meta) -> None:
+    if isinstance(value, dict) and "range" in meta:  # a table of numbers: each entry in the range
+        for k, v in value.items():
+            _check_field(f"{path}.{k}", v, meta)
+        return
     if "choices" in meta and value not in meta["choices"]:
         raise ConfigError(f"{path}={value!r} is not one of {list(meta['choices'])}")
     if isinstance(value, float) and not math.isfinite(value):
