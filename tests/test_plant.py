@@ -339,3 +339,13 @@ def test_what_it_takes_finds_the_values_that_meet_virgin_tpa():
     assert at_wage.evaluate()["msp_usd_per_kg"] == pytest.approx(1.143, rel=1e-6)
     at_factor = own_plant("at_factor", replace(PlantConfig(), ghg_kg_co2e={"naoh": naoh}))
     assert at_factor.evaluate()["gwp_kg_per_kg"] == pytest.approx(1.60, rel=1e-6)
+
+
+def test_landfilled_salt_pays_the_tip_fee_and_the_landfills_factor():
+    """EREF's 59.56 $/t and Manfredi's 0.07 kg CO2e/kg on every kg of dried salt."""
+    p = own_plant("landfilled", replace(PlantConfig(), sodium=SodiumConfig(kind="landfilled")))
+    salt, rtpa = p.ps.streams["landfilled_salt"], p.rtpa.F_mass
+    assert salt.F_mass == pytest.approx(p.ps.streams["Na2SO4"].F_mass, rel=1e-12)
+    record = p.record(p.evaluate()["msp_usd_per_kg"])
+    assert record["msp_landfilled_salt_usd_per_kg"] == pytest.approx(salt.F_mass * 0.05956 / rtpa, rel=1e-9)
+    assert record["gwp_landfilled_salt_kg_per_kg"] == pytest.approx(salt.F_mass * 0.07 / rtpa, rel=1e-9)

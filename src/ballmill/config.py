@@ -471,12 +471,14 @@ class HeatConfig:
 
 @dataclass
 class SodiumConfig:
-    """What becomes of the sodium (plant/sodium=salt|bpmed; the options: plant/sodium.py).  salt:
-    Na2SO4 leaves at plant.na2so4_usd_per_t; bpmed: bipolar-membrane electrodialysis splits it
+    """What becomes of the sodium (plant/sodium=salt|landfilled|bpmed; the options: plant/sodium.py).
+    salt: Na2SO4 leaves at plant.na2so4_usd_per_t; landfilled: at the tip fee and the landfill's
+    factor; bpmed: bipolar-membrane electrodialysis splits it
     back into NaOH and H2SO4 (Na2SO4 + 2 H2O -> 2 NaOH + H2SO4), which the plant then buys less of,
     their water evaporated in effects on steam."""
 
-    kind: str = field(default="salt", metadata={"choices": ("salt", "bpmed"), "doc": "sold salt, or split back"})
+    kind: str = field(default="salt", metadata={"choices": ("salt", "landfilled", "bpmed"),
+                                                 "doc": "salt at its value, landfilled, or split back"})
     kwh_per_kg_naoh: float = rng(4.72, 1.0, 20.0, doc="bpmed: the stack's electricity per kg NaOH made")
     current_efficiency: float = rng(0.364, 0.1, 1.0, doc="bpmed: NaOH made / the charge passed (Faraday)")
     current_density_a_per_m2: float = rng(500.0, 50.0, 2000.0, doc="bpmed: current per m2 of bipolar membrane")

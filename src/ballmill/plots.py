@@ -318,7 +318,8 @@ MSP_GROUPS = {  # cost categories of the MSP breakdown ($/kg rTPA), as stacked i
                             "msp_wash_water_usd_per_kg", "msp_cooling_tower_chemicals_usd_per_kg",
                             "msp_splitting_water_usd_per_kg"],
     "disposal, wastewater": ["msp_sorting_residue_usd_per_kg", "msp_grinding_fines_usd_per_kg",
-                             "msp_purged_pet_usd_per_kg", "msp_residue_usd_per_kg", "msp_treated_water_usd_per_kg"],
+                             "msp_purged_pet_usd_per_kg", "msp_residue_usd_per_kg", "msp_treated_water_usd_per_kg",
+                             "msp_landfilled_salt_usd_per_kg"],
     "labour, maintenance, insurance": ["msp_fixed_operating_usd_per_kg"],
     "co-products": ["msp_eg_usd_per_kg", "msp_na2so4_usd_per_kg", "msp_recovered_naoh_usd_per_kg",
                     "msp_recovered_h2so4_usd_per_kg"],
@@ -332,7 +333,8 @@ GWP_GROUPS = {  # contributors to the footprint (kg CO2e/kg rTPA)
     "electricity": ["gwp_electricity_kg_per_kg"],
     "residues, wastewater, CO2 of burnt carbon": [
         "gwp_sorting_residue_kg_per_kg", "gwp_grinding_fines_kg_per_kg", "gwp_purged_pet_kg_per_kg",
-        "gwp_residue_kg_per_kg", "gwp_treated_water_kg_per_kg", "gwp_treatment_co2_kg_per_kg", "gwp_boiler_co2_kg_per_kg"],
+        "gwp_residue_kg_per_kg", "gwp_treated_water_kg_per_kg", "gwp_treatment_co2_kg_per_kg", "gwp_boiler_co2_kg_per_kg",
+        "gwp_landfilled_salt_kg_per_kg"],
     "co-product credits": ["gwp_eg_credit_kg_per_kg", "gwp_na2so4_credit_kg_per_kg", "gwp_recovered_naoh_credit_kg_per_kg",
                            "gwp_recovered_h2so4_credit_kg_per_kg"],
 }

@@ -23,7 +23,7 @@ STEAM = ("low_pressure_steam", "medium_pressure_steam", "high_pressure_steam")
 INPUTS = {"bales": "pet_bale", "NaOH": "naoh", "sulfuric_acid": "h2so4", "dissolution_water": "process_water",
           "wash_water": "process_water", "cooling_tower_makeup_water": "process_water",
           "splitting_water": "process_water"}  # and each steam agent
-LANDFILLED = ("sorting_residue", "grinding_fines", "purged_PET", "residue")  # plastics and salt
+LANDFILLED = ("sorting_residue", "grinding_fines", "purged_PET", "residue", "landfilled_salt")  # plastics and salt
 WASTES = {**dict.fromkeys(LANDFILLED, "landfill"), "treated_water": "wastewater", "treatment_CO2": "fossil_co2",
           "boiler_CO2": "fossil_co2"}
 CREDITS = {"EG": "eg", "Na2SO4": "na2so4", "recovered_NaOH": "naoh", "recovered_H2SO4": "h2so4"}

@@ -2,6 +2,7 @@
 stream and either leaves it a product or splits it.
 
 - salt: Na2SO4 leaves at plant.na2so4_usd_per_t (set on the stream by the flowsheet).
+- landfilled: the salt goes to landfill at the tip fee and the landfill factor of plant.landfill.
 - bpmed: bipolar-membrane electrodialysis (units.SaltSplitting) returns NaOH and H2SO4; the
   plant buys that much less of each, so they leave as products at the bought prices and carry
   the bought products' factors as credits (the loop closed by system expansion: their purity is
@@ -19,6 +20,10 @@ def salt(streams: dict, cfg, prices: dict[str, float], cepci: float) -> None:
     """Nothing to add: the salt is a product."""
 
 
+def landfilled(streams: dict, cfg, prices: dict[str, float], cepci: float) -> None:
+    bst.Mixer("U402", ins=streams["Na2SO4"], outs=bst.Stream("landfilled_salt", price=-prices["disposal"]))
+
+
 def bpmed(streams: dict, cfg, prices: dict[str, float], cepci: float) -> None:
     c = cfg.sodium
     S = bst.Stream
@@ -31,4 +36,4 @@ def bpmed(streams: dict, cfg, prices: dict[str, float], cepci: float) -> None:
                   effects=c.concentrating_effects, key="bipolar_membrane_huang_2009", cepci=cepci)
 
 
-FATES = {"salt": salt, "bpmed": bpmed}
+FATES = {"salt": salt, "landfilled": landfilled, "bpmed": bpmed}

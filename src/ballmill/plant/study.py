@@ -66,7 +66,7 @@ CONFIG_VARIANTS = {
     "20 staff at every scale": {"staffing": "fixed", "staff": 20},
     "EG credited at the virgin price": {"eg_price_fraction": 1.0},
     "Na2SO4 sold (USGS 2008-2011 price)": lambda prices: {"na2so4_usd_per_t": prices["na2so4_sale"] * 1000.0},
-    "Na2SO4 landfilled": lambda prices: {"na2so4_usd_per_t": -prices["disposal"] * 1000.0},
+    "Na2SO4 landfilled (plant/sodium=landfilled)": {"sodium": SodiumConfig(kind="landfilled")},
     "NaOH dosed only on the PET that converts": {"naoh_dosing": "converting_pet"},
     "crystallizer priced beside the evaporator's last body": {"crystallizer": "separate"},
     "units in brine of carbon steel": {"brine_material": "carbon_steel"},
