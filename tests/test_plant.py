@@ -77,36 +77,36 @@ def test_each_separation_meets_its_configured_recovery(built):
 
 def test_the_base_plant_worked_by_hand(built):
     """The base plant's money and carbon from its unit table and stream table, typed here.
-    Installed cost ($): the units' purchase cost x bare-module factor (E401 3,528,317, S301
-    1,169,911, S201 552,832, D301 485,644, D402 417,069, S401 375,120, R201 299,000, D401 247,288,
-    T601 233,385, T602 205,831, CT 129,756, T201 101,588, R301 100,113, F401 47,659, U102 21,279,
-    the three pumps 58,926, U101 6,205) = 7,979,923 of which ISBL (less T601, T602, CT) 7,410,951;
-    fixed capital 1.6 x (7,979,923 + 0.175 x 7,410,951) = 14,842,943.
+    Installed cost ($): the units' purchase cost x bare-module factor (E401 3,555,828, S301
+    1,169,911, S201 552,832, D301 485,644, D402 417,069, S401 375,120, H401 293,678, R201 299,000,
+    D401 247,288, T601 233,385, T602 205,831, CT 129,756, T201 101,588, R301 100,113, F401 47,659,
+    U102 21,279, the three pumps 58,926, U101 6,205) = 8,301,112 of which ISBL (less T601, T602,
+    CT) 7,732,140; fixed capital 1.6 x (8,301,112 + 0.175 x 7,732,140) = 15,446,778.
     Fixed operating: 0.007 x FCI + 0.03 x ISBL + 1.9 x 25 x 65,460 x 1.15 = 3,901,982 $/yr.
     Per kg rTPA (834.90 kg/h): NaOH 546.81 kg/h x 0.608 = 0.3982 $; EG 251.75 kg/h x 0.961 x 0.7
     = -0.2028 $; footprint: bales 1275.51 x 0.16, NaOH 546.81 x 2.05, acid 683.84 x 0.04447, steam
-    13,250.4 MJ/h x 0.0863928, 361.19 kWh x 0.4181, landfilled 275.51 + 23.58 + 260.53 kg x 0.07,
+    10,985.36 MJ/h x 0.0863928, 361.19 kWh x 0.4181, landfilled 275.51 + 23.58 + 260.53 kg x 0.07,
     CO2 of the treated organics 75.27, EG -251.75 x 2.2938 and the water (10,268 kg fed, 1,077
-    make-up, x 0.00042013; 10,119.9 treated x 0.0002851) = 2.630 kg CO2e/kg.  The MSP, 1.5908 $/kg
+    make-up, x 0.00042013; 10,119.9 treated x 0.0002851) = 2.396 kg CO2e/kg.  The MSP, 1.5875 $/kg
     (typed: the annuity test checks the cash flow's arithmetic), pins the whole."""
     t, rtpa = built.tea, 834.90
-    installed = (3_528_317 + 1_169_911 + 552_832 + 485_644 + 417_069 + 375_120 + 299_000 + 247_288 + 233_385
-                 + 205_831 + 129_756 + 101_588 + 100_113 + 47_659 + 21_279 + 58_926 + 6_205)
+    installed = (3_555_828 + 1_169_911 + 552_832 + 485_644 + 417_069 + 375_120 + 293_678 + 299_000 + 247_288
+                 + 233_385 + 205_831 + 129_756 + 101_588 + 100_113 + 47_659 + 21_279 + 58_926 + 6_205)
     isbl = installed - 233_385 - 205_831 - 129_756
     fci = 1.6 * (installed + 0.175 * isbl)
-    assert (installed, round(fci)) == (7_979_923, 14_842_943)  # the units' costs rounded to $1 each
+    assert (installed, round(fci)) == (8_301_112, 15_446_778)  # the units' costs rounded to $1 each
     assert t.FCI == pytest.approx(fci, rel=2e-6)
     assert t.FOC == pytest.approx(0.007 * fci + 0.03 * isbl + 1.9 * 25 * 65_460 * 1.15, rel=2e-6)
     assert built.rtpa.F_mass == pytest.approx(rtpa, rel=1e-5)
     record = built.record(built.base["msp_usd_per_kg"])
     assert record["msp_naoh_usd_per_kg"] == pytest.approx(546.81 * 0.608 / rtpa, rel=1e-4)
     assert record["msp_eg_usd_per_kg"] == pytest.approx(-251.75 * 0.961 * 0.7 / rtpa, rel=1e-4)
-    carbon = (1275.51 * 0.16 + 546.81 * 2.05 + 683.84 * 0.04447 + 13_250.4 * 0.0863928 + 361.19 * 0.4181
+    carbon = (1275.51 * 0.16 + 546.81 * 2.05 + 683.84 * 0.04447 + 10_985.36 * 0.0863928 + 361.19 * 0.4181
               + (275.51 + 23.58 + 260.53) * 0.07 + 75.27 - 251.75 * 2.2938
               + (8601.9 + 1666.46 + 1077.41) * 0.00042013 + 10_119.86 * 0.0002851) / rtpa
     assert built.base["gwp_kg_per_kg"] == pytest.approx(carbon, rel=1e-5)
-    assert built.base["gwp_kg_per_kg"] == pytest.approx(2.630, abs=5e-4)
-    assert built.base["msp_usd_per_kg"] == pytest.approx(1.5908, abs=5e-5)
+    assert built.base["gwp_kg_per_kg"] == pytest.approx(2.396, abs=5e-4)
+    assert built.base["msp_usd_per_kg"] == pytest.approx(1.5875, abs=5e-5)
 
 
 def test_correlations_give_their_textbook_prices():

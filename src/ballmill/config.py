@@ -442,6 +442,9 @@ class EvaporationConfig:
                                                          "doc": "multiple effects on steam, or vapour recompression"})
     effect_pressures_pa: list[float] = field(default_factory=lambda: [101325.0, 60000.0, 25000.0], metadata={
         "doc": "multi_effect: each body's pressure, falling (Pa; one to six effects)"})
+    feed_preheat: bool = field(default=True, metadata={
+        "doc": "multi_effect: the condensate heats the feed in a process exchanger before the first body"})
+    approach_temperature_k: float = rng(5.0, 1.0, 30.0, doc="multi_effect, feed_preheat: the exchanger's approach (K)")
     kwh_per_t_water: float = rng(30.0, 10.0, 100.0, doc="mvr: electricity per tonne of water evaporated")
     pressure_pa: float = rng(101325.0, 20000.0, 300000.0, doc="mvr: the body's pressure (Pa)")
     temperature_difference_k: float = rng(6.0, 2.0, 20.0,

@@ -158,7 +158,7 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
 
     # 400 salt and EG
     P401 = bst.Pump("P401", ins=S301 - 1)
-    E401 = EVAPORATORS[cfg.evaporation.kind]("E401", P401 - 0, cfg, cepci)
+    E401, condensate = EVAPORATORS[cfg.evaporation.kind]("E401", P401 - 0, cfg, cepci)
     C401 = SaltCrystallizer("C401", ins=E401 - 0, solubility=value("Na2SO4", "solubility_kg_per_kg_water"),
                             key=cfg.crystallizer_cost, cepci=cepci, priced=cfg.crystallizer == "separate")
     S401 = scaled(bst.SolidsCentrifuge)("S401", ins=C401 - 0, outs=("salt_cake", "EG_liquor"), split={"Na2SO4": 1.0},
@@ -185,7 +185,7 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
                                           P=cfg.eg_column_pressure_pa, vessel_material="Stainless steel 304")
 
     # 500 wastewater, 600 storage and cooling
-    M501 = bst.Mixer("M501", ins=(E401 - 1, D402 - 0))
+    M501 = bst.Mixer("M501", ins=(condensate, D402 - 0))
     WastewaterTreatment("W501", ins=(M501 - 0, S("treatment_air")), outs=(S("treated_water"), S("treatment_CO2")),
                         usd_per_kg_cod=prices["cod_removal"])
     bst.StorageTank("T602", ins=D402 - 1, outs=eg, vessel_material="Stainless steel")
