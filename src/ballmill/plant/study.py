@@ -78,6 +78,7 @@ CONFIG_VARIANTS = {
     "no start-up period": {"startup_months": 0.0},
     "no debt (all equity)": {"loan_fraction": 0.0},
     "fine powder instead of flake (pulveriser)": {"feed_form": "powder"},
+    "the evaporator's feed not preheated by its condensate": {"evaporation": EvaporationConfig(feed_preheat=False)},
     "evaporation by vapour recompression (plant/evaporation=mvr)": {"evaporation": EvaporationConfig(kind="mvr")},
     "steam from an electric boiler (plant/heat=electric_boiler)": {"heat": HeatConfig(kind="electric_boiler")},
     "steam from the sorted-out plastics (plant/heat=residue_boiler)": {"heat": HeatConfig(kind="residue_boiler")},
