@@ -254,6 +254,10 @@ RECORD = {
         "gwp_total_kg_per_kg": "cradle-to-gate footprint, kg CO2e per kg rTPA",
         "gwp_<item>_kg_per_kg": "one input's, utility's or waste's part of it (co-product credits negative)",
         "gwp_p<q>_kg_per_kg": "the q-th percentile (5, 50, 95) of the footprint's Monte Carlo",
+        "gwp_mass_allocation_kg_per_kg": "the footprint with the burdens shared by mass among rTPA, EG and Na2SO4 "
+                                         "instead of crediting the co-products",
+        "gwp_economic_allocation_kg_per_kg": "the same shared by value (rTPA at virgin TPA's price, the co-products at "
+                                             "theirs)",
         "virgin_tpa_usd_per_kg": "virgin TPA's price (data/prices.csv)",
         "virgin_tpa_gwp_kg_per_kg": "virgin TPA's footprint (data/ghg_factors.csv)",
     }),

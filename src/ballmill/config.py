@@ -10,6 +10,7 @@ first, then the options of the other commands (track, render, calibrate, report,
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import typing
 from dataclasses import dataclass, field
@@ -441,6 +442,66 @@ class YieldModelConfig:
 
 
 @dataclass
+class EvaporationConfig:
+    """How the mother liquor's water is evaporated (plant/evaporation=multi_effect|mvr; the options:
+    plant/evaporation.py).  multi_effect: bodies at effect_pressures_pa heated by the plant's
+    steam, the first by live steam; mvr: one forced-circulation body heated by its own vapour,
+    recompressed on electricity (kwh_per_t_water, the feed preheated by the condensate)."""
+
+    kind: str = field(default="multi_effect", metadata={"choices": ("multi_effect", "mvr"),
+                                                         "doc": "multiple effects on steam, or vapour recompression"})
+    effect_pressures_pa: list[float] = field(default_factory=lambda: [101325.0, 60000.0, 25000.0], metadata={
+        "doc": "multi_effect: each body's pressure, falling (Pa; one to six effects)"})
+    feed_preheat: bool = field(default=True, metadata={
+        "doc": "multi_effect: the condensate heats the feed in a process exchanger before the first body"})
+    approach_temperature_k: float = rng(5.0, 1.0, 30.0, doc="multi_effect, feed_preheat: the exchanger's approach (K)")
+    kwh_per_t_water: float = rng(30.0, 10.0, 100.0, doc="mvr: electricity per tonne of water evaporated")
+    pressure_pa: float = rng(101325.0, 20000.0, 300000.0, doc="mvr: the body's pressure (Pa)")
+    temperature_difference_k: float = rng(6.0, 2.0, 20.0,
+                                          doc="mvr: condensing vapour over boiling liquor, set by the compression (K)")
+    u_w_per_m2_k: float = rng(2000.0, 300.0, 6000.0, doc="mvr: the body's overall heat-transfer coefficient")
+    compressor_cost: str = field(default="centrifugal_compressor_seider_2017", metadata={
+        "doc": "mvr: the compressor's cost correlation (kW of shaft power), a row of data/cost_correlations.csv"})
+
+    def __post_init__(self):
+        p = self.effect_pressures_pa
+        if not 1 <= len(p) <= 6 or any(b >= a for a, b in itertools.pairwise(p)) or not 5000.0 <= min(p) <= max(p) <= 5e5:
+            raise ConfigError(f"plant.evaporation.effect_pressures_pa={p}: give one to six falling pressures within "
+                              "[5000.0, 500000.0] Pa")
+
+
+@dataclass
+class HeatConfig:
+    """Where the plant's steam comes from (plant/heat=bought_steam|electric_boiler|residue_boiler;
+    the options: plant/heat.py).  bought_steam: at its price and natural gas's factor; an electric
+    boiler on the grid; a boiler burning the sorted-out plastics, topped up with bought steam."""
+
+    kind: str = field(default="bought_steam", metadata={
+        "choices": ("bought_steam", "electric_boiler", "residue_boiler"), "doc": "the steam's source"})
+    electric_efficiency: float = rng(0.99, 0.5, 1.0, doc="electric_boiler: steam heat / electricity")
+    boiler_efficiency: float = rng(0.80, 0.3, 0.95, doc="residue_boiler: steam heat / the fuel's lower heating value")
+
+
+@dataclass
+class SodiumConfig:
+    """What becomes of the sodium (plant/sodium=salt|landfilled|bpmed; the options: plant/sodium.py).
+    salt: Na2SO4 leaves at plant.na2so4_usd_per_t; landfilled: at the tip fee and the landfill's
+    factor; bpmed: bipolar-membrane electrodialysis splits it
+    back into NaOH and H2SO4 (Na2SO4 + 2 H2O -> 2 NaOH + H2SO4), which the plant then buys less of,
+    their water evaporated in effects on steam."""
+
+    kind: str = field(default="salt", metadata={"choices": ("salt", "landfilled", "bpmed"),
+                                                 "doc": "salt at its value, landfilled, or split back"})
+    kwh_per_kg_naoh: float = rng(4.72, 1.0, 20.0, doc="bpmed: the stack's electricity per kg NaOH made")
+    current_efficiency: float = rng(0.364, 0.1, 1.0, doc="bpmed: NaOH made / the charge passed (Faraday)")
+    current_density_a_per_m2: float = rng(500.0, 50.0, 2000.0, doc="bpmed: current per m2 of bipolar membrane")
+    stack_to_membrane: float = rng(2.0, 1.0, 10.0, doc="bpmed: the stack's price / its bipolar membranes'")
+    membrane_life_yr: int = rng(3, 1, 30, doc="bpmed: years before the stack is bought again")
+    product_wt_fraction: float = rng(0.08, 0.01, 0.5, doc="bpmed: NaOH and H2SO4 in their dilute solutions")
+    concentrating_effects: int = rng(3, 1, 8, doc="bpmed: effects that evaporate the solutions' water on steam")
+
+
+@dataclass
 class PlantConfig:
     """The plant around the mill, on BioSTEAM: feed preparation, the units' design choices, the
     cost year, NREL's TEA convention, the staffing rule and the Monte Carlo (defaults and their
@@ -449,65 +510,84 @@ class PlantConfig:
     feed_form: str = field(default="flake", metadata={
         "choices": ("flake", "powder"),
         "doc": "what the mill takes: granulated flake, or flake pulverised to the fine powder the lab used"})
-    bale_pet_fraction: float = rng(0.8, 0.0, 1.0, lo_open=True,
+    bale_pet_fraction: float = rng(0.8, 0.5, 1.0,
                                    doc="PET in a tonne of bales (the rest, caps, labels and dirt, is sorted out)")
-    granulation_kwh_per_t: float = rng(132.0, 0.0, None, doc="granulator's electricity per tonne of bales")
-    flake_loss_fraction: float = rng(0.02, 0.0, 1.0, hi_open=True, doc="PET lost as fines in granulating and sorting")
-    pulverising_kwh_per_t: float = rng(200.0, 0.0, None, doc="pulveriser's electricity per tonne of flake (powder)")
-    powder_loss_fraction: float = rng(0.02, 0.0, 1.0, hi_open=True, doc="PET lost in pulverising (powder)")
+    granulation_kwh_per_t: float = rng(132.0, 0.0, 1000.0, doc="granulator's electricity per tonne of bales")
+    flake_loss_fraction: float = rng(0.02, 0.0, 0.5, doc="PET lost as fines in granulating and sorting")
+    pulverising_kwh_per_t: float = rng(200.0, 0.0, 2000.0, doc="pulveriser's electricity per tonne of flake (powder)")
+    powder_loss_fraction: float = rng(0.02, 0.0, 0.5, doc="PET lost in pulverising (powder)")
     granulator_cost: str = field(default="hammer_mill_seider_2017", metadata={
         "doc": "the granulator's cost correlation, a row of data/cost_correlations.csv"})
     pulveriser_cost: str = field(default="pulverizer_towler_2010", metadata={
         "doc": "the pulveriser's cost correlation, a row of data/cost_correlations.csv"})
+    naoh_dosing: str = field(default="whole_feed", metadata={
+        "choices": ("whole_feed", "converting_pet"),
+        "doc": "NaOH dosed on all PET entering the mill (what the yield data were measured with), or only on the PET "
+               "that converts per pass (less NaOH, less acid: whether the conversion holds is not known)"})
     recycle_purge_fraction: float = rng(0.05, 0.0, 1.0, lo_open=True,
                                         doc="share of the unreacted PET purged (1: no recycle)")
-    dissolution_water_kg_per_kg_na2tpa: float = rng(8.0, 0.0, None, lo_open=True, doc="water that dissolves the Na2TPA")
-    tank_residence_time_h: float = rng(1.0, 0.0, None, lo_open=True,
+    dissolution_water_kg_per_kg_na2tpa: float = rng(8.0, 5.0, 100.0, doc=(
+        "water that dissolves the Na2TPA (it dissolves to roughly 12-14 wt %, 6-7 kg/kg: below 5 it would not)"))
+    tank_residence_time_h: float = rng(1.0, 0.0, 48.0, lo_open=True,
                                        doc="residence time that sizes the dissolver and the acidifier (h)")
-    pet_cake_moisture: float = rng(0.3, 0.0, 1.0, hi_open=True, doc="water in the unreacted-PET cake (mass fraction)")
-    h2so4_to_stoichiometric: float = rng(1.02, 1.0, None,
+    pet_cake_moisture: float = rng(0.3, 0.0, 0.9, doc="water in the unreacted-PET cake (mass fraction)")
+    h2so4_to_stoichiometric: float = rng(1.02, 1.0, 2.0,
                                          doc="H2SO4 dosed / the acid that neutralises the Na2TPA and the NaOH left")
-    tpa_recovery: float = rng(0.98, 0.0, 1.0, lo_open=True, doc="share of the TPA the filter keeps")
-    tpa_cake_moisture: float = rng(0.2, 0.0, 1.0, hi_open=True, doc="water in the washed TPA cake (mass fraction)")
-    wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, None, doc="wash water on the TPA cake")
-    dry_moisture: float = rng(0.002, 0.0, 1.0, hi_open=True, doc="water left in the dried rTPA and salt (mass fraction)")
-    evaporated_water_fraction: float = rng(0.95, 0.0, 1.0, lo_open=True, hi_open=True,
+    tpa_recovery: float = rng(0.98, 0.5, 1.0, doc="share of the TPA the filter keeps")
+    tpa_cake_moisture: float = rng(0.2, 0.03, 0.6, doc="water in the washed TPA cake (mass fraction)")
+    wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, 20.0, doc="wash water on the TPA cake")
+    dry_moisture: float = rng(0.002, 0.0, 0.02, doc="water left in the dried rTPA and salt (mass fraction)")
+    evaporated_water_fraction: float = rng(0.95, 0.5, 0.99,
                                            doc="share of the mother liquor's water the evaporator removes")
     evaporator_cost: str = field(default="forced_circulation_evaporator_seider_2017", metadata={
         "doc": "the evaporator bodies' cost correlation (per body), a row of data/cost_correlations.csv"})
+    crystallizer: str = field(default="last_effect", metadata={
+        "choices": ("last_effect", "separate"),
+        "doc": "last_effect: the evaporator's last forced-circulation body, holding the slurry, is the crystallizer "
+               "(priced once, as a body); separate: a crystallizer priced beside it"})
+    brine_material: str = field(default="stainless_steel_316", metadata={
+        "doc": "material of the units in acidic sulfate brine (TPA filter, evaporator, crystallizer, centrifuge), a row "
+               "of data/material_factors.csv"})
     crystallizer_cost: str = field(default="forced_circulation_crystallizer_seider_2017", metadata={
         "doc": "the Na2SO4 crystallizer's cost correlation, a row of data/cost_correlations.csv"})
-    salt_cake_moisture: float = rng(0.05, 0.0, 1.0, hi_open=True, doc="water in the centrifuged salt (mass fraction)")
-    eg_stripper_recovery: float = rng(0.95, 0.0, 1.0, lo_open=True, hi_open=True,
+    salt_cake_moisture: float = rng(0.05, 0.01, 0.4, doc="water in the centrifuged salt (mass fraction)")
+    eg_stripper_recovery: float = rng(0.95, 0.5, 0.999,
                                       doc="share of the liquor's EG the stripper sets out to vaporise")
-    eg_stripper_pressure_pa: float = rng(101325.0, 1000.0, None, doc="EG stripper's pressure (Pa)")
-    eg_column_water_recovery: float = rng(0.999, 0.5, 1.0, hi_open=True, doc="water to the EG column's top")
-    eg_column_eg_recovery: float = rng(0.995, 0.5, 1.0, hi_open=True, doc="EG to the EG column's bottom")
-    eg_column_reflux_to_minimum: float = rng(1.2, 1.0, None, lo_open=True, doc="reflux / minimum reflux")
-    eg_column_pressure_pa: float = rng(101325.0, 1000.0, None, doc="EG column's pressure (Pa)")
+    eg_stripper_pressure_pa: float = rng(101325.0, 5000.0, 500000.0, doc="EG stripper's pressure (Pa)")
+    eg_column_water_recovery: float = rng(0.999, 0.95, 0.9999, doc="water to the EG column's top")
+    eg_column_eg_recovery: float = rng(0.995, 0.9, 0.9999, doc="EG to the EG column's bottom")
+    eg_column_reflux_to_minimum: float = rng(1.2, 1.0, 5.0, lo_open=True, doc="reflux / minimum reflux")
+    eg_column_pressure_pa: float = rng(101325.0, 5000.0, 500000.0, doc="EG column's pressure (Pa)")
     eg_price_fraction: float = rng(0.7, 0.0, 1.0, doc="recovered EG's price / virgin MEG's (purity discount)")
-    na2so4_usd_per_t: float = rng(0.0, -1e4, 1e4, doc="the salt's value: sale (> 0) or disposal (< 0)")
+    na2so4_usd_per_t: float = rng(0.0, -1000.0, 1000.0, doc="the salt's value: sale (> 0) or disposal (< 0)")
+    landfill: str = field(default="landfill_low_organic", metadata={
+        "choices": ("landfill_low_organic", "landfill"),
+        "doc": "the greenhouse-gas factor of the landfilled plastics and salt (a row of data/ghg_factors.csv): "
+               "low-organic-carbon waste, or organic waste"})
     cost_year: int = rng(2021, 1950, 2100, doc="dollar year of the plant: equipment by CEPCI, the prices' year")
-    mill_bare_module_factor: float = rng(2.3, 1.0, None, doc="installed / purchase cost of the ball mill")
-    warehouse: float = rng(0.04, 0.0, None, doc="of ISBL installed cost")
-    site_development: float = rng(0.09, 0.0, None, doc="of ISBL installed cost")
-    additional_piping: float = rng(0.045, 0.0, None, doc="of ISBL installed cost")
-    prorateable: float = rng(0.10, 0.0, None, doc="prorateable costs, of the direct cost")
-    field_expenses: float = rng(0.10, 0.0, None, doc="of the direct cost")
-    construction: float = rng(0.20, 0.0, None, doc="home office and construction fees, of the direct cost")
-    contingency: float = rng(0.10, 0.0, None, doc="project contingency, of the direct cost")
-    other_indirect: float = rng(0.10, 0.0, None, doc="start-up, permits and other indirect costs, of the direct cost")
-    working_capital_fraction: float = rng(0.05, 0.0, None, doc="of the fixed capital")
+    mill_bare_module_factor: float = rng(2.3, 1.0, 10.0, doc="installed / purchase cost of the ball mill")
+    warehouse: float = rng(0.04, 0.0, 1.0, doc="of ISBL installed cost")
+    site_development: float = rng(0.09, 0.0, 1.0, doc="of ISBL installed cost")
+    additional_piping: float = rng(0.045, 0.0, 1.0, doc="of ISBL installed cost")
+    prorateable: float = rng(0.10, 0.0, 1.0, doc="prorateable costs, of the direct cost")
+    field_expenses: float = rng(0.10, 0.0, 1.0, doc="of the direct cost")
+    construction: float = rng(0.20, 0.0, 1.0, doc="home office and construction fees, of the direct cost")
+    contingency: float = rng(0.10, 0.0, 1.0, doc="project contingency, of the direct cost")
+    other_indirect: float = rng(0.10, 0.0, 1.0, doc="start-up, permits and other indirect costs, of the direct cost")
+    working_capital_fraction: float = rng(0.05, 0.0, 1.0, doc="of the fixed capital")
     staffing: str = field(default="per_unit", metadata={
         "choices": ("per_unit", "fixed"),
         "doc": "per_unit: operators per shift from each unit (data/staffing.csv); fixed: plant.staff"})
-    staff: int = rng(20, 0, None, doc="operating staff with staffing=fixed")
-    operators_per_position: float = rng(4.5, 1.0, None, doc="staff per operator position around the clock")
-    operator_wage_usd_per_yr: float = rng(65460.0, 0.0, None, doc="operator's mean annual wage")
-    supervision_fraction: float = rng(0.15, 0.0, None, doc="supervisory and clerical labour, of operating labour")
-    labour_burden: float = rng(0.9, 0.0, None, doc="overhead on salaries")
-    maintenance_fraction: float = rng(0.03, 0.0, None, doc="of ISBL installed cost per year")
-    insurance_fraction: float = rng(0.007, 0.0, None, doc="property insurance and tax, of the fixed capital per year")
+    staff: int = rng(20, 1, 1000, doc="operating staff with staffing=fixed")
+    operators_per_position: float = rng(4.5, 1.0, 10.0, doc="staff per operator position around the clock")
+    operator_wage_usd_per_yr: float = rng(65460.0, 0.0, 1e6, doc="operator's mean annual wage")
+    supervision_fraction: float = rng(0.15, 0.0, 1.0, doc="supervisory and clerical labour, of operating labour")
+    labour_burden: float = rng(0.9, 0.0, 3.0, doc="overhead on salaries")
+    maintenance_fraction: float = rng(0.03, 0.0, 0.2, doc="of the maintenance basis per year")
+    maintenance_basis: str = field(default="isbl_installed", metadata={
+        "choices": ("isbl_installed", "fixed_capital"),
+        "doc": "what maintenance_fraction is a share of: ISBL installed cost (NREL) or the fixed capital"})
+    insurance_fraction: float = rng(0.007, 0.0, 0.1, doc="property insurance and tax, of the fixed capital per year")
     plant_life_yr: int = rng(30, 1, 100, doc="years of operation")
     construction_fractions: list[float] = field(default_factory=lambda: [0.08, 0.60, 0.32], metadata={
         "doc": "capital spent in each construction year (sums to 1)"})
@@ -518,7 +598,25 @@ class PlantConfig:
     discount_rate: float = rng(0.10, 0.0, 1.0, lo_open=True, doc="internal rate of return (real, after tax)")
     tax_rate: float = rng(0.21, 0.0, 1.0, hi_open=True, doc="income tax rate")
     depreciation_file: str = field(default="macrs_7yr.csv", metadata={"doc": "depreciation schedule, a data/ table"})
-    monte_carlo_draws: int = rng(2000, 0, None, doc="draws of the Monte Carlo (0: none)")
+    evaporation: EvaporationConfig = field(default_factory=EvaporationConfig, metadata={
+        "doc": "the evaporator (plant/evaporation=...)"})
+    heat: HeatConfig = field(default_factory=HeatConfig, metadata={"doc": "the steam's source (plant/heat=...)"})
+    sodium: SodiumConfig = field(default_factory=SodiumConfig, metadata={"doc": "the salt's fate (plant/sodium=...)"})
+    prices_usd_per_t: dict[str, float] = field(default_factory=dict, metadata={"range": (0.0, 1e5, False, False),
+        "doc": "prices that replace the prices file's, by item ($/t; steam per t, electricity: economics), e.g. "
+               "+plant.prices_usd_per_t.naoh=700"})
+    ghg_kg_co2e: dict[str, float] = field(default_factory=dict, metadata={"range": (0.0, 100.0, False, False),
+        "doc": "greenhouse-gas factors that replace data/ghg_factors.csv's, by item (its unit: kg, MJ or kWh), e.g. "
+               "+plant.ghg_kg_co2e.electricity_us=0.1"})
+    what_it_takes: list[str] = field(default_factory=lambda: [
+        "price.naoh", "price.pet_bale", "price.steam_factor", "economics.electricity_usd_per_kwh",
+        "plant.operator_wage_usd_per_yr", "plant.dissolution_water_kg_per_kg_na2tpa", "ghg.naoh", "ghg.steam",
+        "ghg.electricity_us", "ghg.pet_bale"], metadata={
+        "doc": "levers whose break-even values (MSP = virgin TPA's price, footprint = virgin PTA's) the plant study "
+               "solves for (what_it_takes.csv): parameters of data/plant_uncertainty.csv; [] for none"})
+    what_it_takes_span: float = rng(10.0, 1.0, 100.0,
+                                    doc="each lever is searched between its base over and times this (within its range)")
+    monte_carlo_draws: int = rng(2000, 0, 100_000, doc="draws of the Monte Carlo (0: none)")
     seed: int = rng(0, 0, None, doc="seed of the Monte Carlo draws")
 
     def __post_init__(self):
@@ -526,6 +624,10 @@ class PlantConfig:
         if abs(sum(self.construction_fractions) - 1.0) > 1e-9:
             raise ConfigError(f"plant.construction_fractions={self.construction_fractions} sum to "
                               f"{sum(self.construction_fractions):g}: they must sum to 1")
+        for cake in ("tpa_cake_moisture", "salt_cake_moisture"):
+            if self.dry_moisture >= getattr(self, cake):
+                raise ConfigError(f"plant.dry_moisture={self.dry_moisture} must be below plant.{cake}="
+                                  f"{getattr(self, cake)}: a dryer cannot add water")
 
 
 def check_interval(name: str, values: list, lo: float | None = None, hi: float | None = None) -> None:
@@ -778,6 +880,9 @@ def register() -> None:
     cs.store(group="study", name="base_study", node=StudyConfig)
     cs.store(group="yield_model", name="base_yield_model", node=YieldModelConfig)
     cs.store(group="plant", name="base_plant", node=PlantConfig)
+    cs.store(group="plant/evaporation", name="base_evaporation", node=EvaporationConfig)
+    cs.store(group="plant/heat", name="base_heat", node=HeatConfig)
+    cs.store(group="plant/sodium", name="base_sodium", node=SodiumConfig)
     cs.store(group="dem", name="base_dem", node=DemConfig)
     cs.store(group="optimiser", name="base_optimiser", node=OptimiserConfig)
     for name, node in COMMANDS.items():
@@ -824,6 +929,10 @@ def walk(schema: type, prefix: str = ""):
 
 
 def _check_field(path: str, value, meta) -> None:
+    if isinstance(value, dict) and "range" in meta:  # a table of numbers: each entry in the range
+        for k, v in value.items():
+            _check_field(f"{path}.{k}", v, meta)
+        return
     if "choices" in meta and value not in choices(meta):
         raise ConfigError(f"{path}={value!r} is not one of {list(choices(meta))}")
     if isinstance(value, float) and not math.isfinite(value):

@@ -315,21 +315,28 @@ MSP_GROUPS = {  # cost categories of the MSP breakdown ($/kg rTPA), as stacked i
     "PET bales": ["msp_bales_usd_per_kg"],
     "NaOH + H2SO4": ["msp_naoh_usd_per_kg", "msp_sulfuric_acid_usd_per_kg"],
     "steam, power, water": ["msp_steam_usd_per_kg", "msp_electricity_usd_per_kg", "msp_dissolution_water_usd_per_kg",
-                            "msp_wash_water_usd_per_kg", "msp_cooling_tower_chemicals_usd_per_kg"],
+                            "msp_wash_water_usd_per_kg", "msp_cooling_tower_chemicals_usd_per_kg",
+                            "msp_splitting_water_usd_per_kg"],
     "disposal, wastewater": ["msp_sorting_residue_usd_per_kg", "msp_grinding_fines_usd_per_kg",
-                             "msp_purged_pet_usd_per_kg", "msp_residue_usd_per_kg", "msp_treated_water_usd_per_kg"],
+                             "msp_purged_pet_usd_per_kg", "msp_residue_usd_per_kg", "msp_treated_water_usd_per_kg",
+                             "msp_landfilled_salt_usd_per_kg"],
     "labour, maintenance, insurance": ["msp_fixed_operating_usd_per_kg"],
-    "EG + salt": ["msp_eg_usd_per_kg", "msp_na2so4_usd_per_kg"],
+    "co-products": ["msp_eg_usd_per_kg", "msp_na2so4_usd_per_kg", "msp_recovered_naoh_usd_per_kg",
+                    "msp_recovered_h2so4_usd_per_kg"],
 }
 GWP_GROUPS = {  # contributors to the footprint (kg CO2e/kg rTPA)
     "NaOH": ["gwp_naoh_kg_per_kg"],
     "H2SO4, water, bales": ["gwp_sulfuric_acid_kg_per_kg", "gwp_dissolution_water_kg_per_kg", "gwp_wash_water_kg_per_kg",
-                            "gwp_cooling_tower_makeup_water_kg_per_kg", "gwp_bales_kg_per_kg"],
+                            "gwp_cooling_tower_makeup_water_kg_per_kg", "gwp_bales_kg_per_kg",
+                            "gwp_splitting_water_kg_per_kg"],
     "steam": ["gwp_steam_kg_per_kg"],
     "electricity": ["gwp_electricity_kg_per_kg"],
-    "residues, wastewater": ["gwp_sorting_residue_kg_per_kg", "gwp_grinding_fines_kg_per_kg", "gwp_purged_pet_kg_per_kg",
-                             "gwp_residue_kg_per_kg", "gwp_treated_water_kg_per_kg"],
-    "EG + salt credits": ["gwp_eg_credit_kg_per_kg", "gwp_na2so4_credit_kg_per_kg"],
+    "residues, wastewater, CO2 of burnt carbon": [
+        "gwp_sorting_residue_kg_per_kg", "gwp_grinding_fines_kg_per_kg", "gwp_purged_pet_kg_per_kg",
+        "gwp_residue_kg_per_kg", "gwp_treated_water_kg_per_kg", "gwp_treatment_co2_kg_per_kg", "gwp_boiler_co2_kg_per_kg",
+        "gwp_landfilled_salt_kg_per_kg"],
+    "co-product credits": ["gwp_eg_credit_kg_per_kg", "gwp_na2so4_credit_kg_per_kg", "gwp_recovered_naoh_credit_kg_per_kg",
+                           "gwp_recovered_h2so4_credit_kg_per_kg"],
 }
 
 
@@ -343,8 +350,8 @@ def stacked(ax, t: pd.DataFrame, groups: dict[str, list[str]], total: str, band:
         ax.bar(x, v, bottom=np.where(v >= 0, up, down), color=f"C{k}", label=name, width=0.7)
         up, down = up + np.maximum(v, 0), down + np.minimum(v, 0)
     lo, hi = t[band.format(5)], t[band.format(95)]
-    ax.errorbar(x, t[total], yerr=[t[total] - lo, hi - t[total]], fmt="ko", ms=4, capsize=3,
-                label="base (5-95 % band)")
+    ax.vlines(x, lo, hi, colors="k", lw=1.2, label="5-95 % band")  # the base may lie outside its band
+    ax.plot(x, t[total], "ko", ms=4, label="base")
     ax.plot(x, t[band.format(50)], "w^", mec="k", ms=5, label="median")
     ax.axhline(t[yardstick].iloc[0], color="0.3", ls="--", lw=1, label="virgin TPA")
     ax.axhline(0, color="k", lw=0.6)

@@ -344,7 +344,8 @@ def yield_design_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: 
 PLANT_COLUMNS = ["bpr", "region", "plant_fresh_pet_kg_per_h", "plant_bales_kg_per_h", "plant_mill_pet_kg_per_h",
                  "yield_percent", "plant_rtpa_t_per_yr", "plant_staff", "plant_fixed_capital_usd", "msp_usd_per_kg",
                  "msp_p5_usd_per_kg", "msp_p50_usd_per_kg", "msp_p95_usd_per_kg", "gwp_total_kg_per_kg",
-                 "gwp_p5_kg_per_kg", "gwp_p50_kg_per_kg", "gwp_p95_kg_per_kg", "msp_mill_share"]
+                 "gwp_p5_kg_per_kg", "gwp_p50_kg_per_kg", "gwp_p95_kg_per_kg", "gwp_mass_allocation_kg_per_kg",
+                 "gwp_economic_allocation_kg_per_kg", "msp_mill_share"]
 SECTION_OF_AREA = {"1": "feed preparation", "2": "reaction", "3": "TPA", "4": "salt and EG", "5": "wastewater",
                    "6": "storage", "C": "cooling tower"}
 
@@ -377,7 +378,8 @@ def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -
     at19 = ok[(ok.bpr - 19).abs() < 1e-9] if ok.region.isna().all() else ok.iloc[:0]
     case = (at19 if len(at19) else ok.sort_values("plant_fresh_pet_kg_per_h")).iloc[-1]
     job = Path(case.job_dir)
-    tables = {stem: pd.read_csv(job / f"{stem}.csv") for stem in ("units", "variants", "tornado", "rank_correlations")
+    tables = {stem: pd.read_csv(job / f"{stem}.csv") for stem in ("units", "variants", "tornado", "rank_correlations",
+                                                                   "what_it_takes")
               if (job / f"{stem}.csv").is_file()}
     tables["sections"] = plant_sections(tables["units"])
     tables["streams"] = pd.read_csv(job / "streams.csv")
@@ -386,7 +388,7 @@ def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -
     save_figure(plot_tornado(tables["tornado"], case.msp_usd_per_kg), out_dir / f"{name}_tornado")
     label = case_label(case.to_dict())
     msp = items(case, "msp_", "_usd_per_kg", ("mill_section",))
-    gwp = items(case, "gwp_", "_kg_per_kg", ("total",))
+    gwp = items(case, "gwp_", "_kg_per_kg", ("total", "mass_allocation", "economic_allocation"))
     anchors = table("published_anchors.csv")
     band = {k: case.get(k, np.nan) for k in ("msp_p5_usd_per_kg", "msp_p50_usd_per_kg", "msp_p95_usd_per_kg",
                                              "gwp_p5_kg_per_kg", "gwp_p50_kg_per_kg", "gwp_p95_kg_per_kg")}
@@ -414,6 +416,11 @@ def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -
             ascending=False).index).head(10)
         lines += ["Spearman rank correlations with the MSP and the footprint (the ten strongest on the MSP):", "",
                   top.to_markdown(index=False, floatfmt=".3f"), ""]
+    if "what_it_takes" in tables:
+        lines += [("What it takes: each lever alone, the value at which the MSP meets virgin TPA's price and the one at "
+                   "which the footprint meets virgin PTA's (empty: not reached between the base over and times "
+                   "plant.what_it_takes_span):"), "",
+                  tables["what_it_takes"].to_markdown(index=False, floatfmt=".4g"), ""]
     lines += ["Published values beside ours:", "", anchors.to_markdown(index=False), ""]
     return lines
 

@@ -17,7 +17,8 @@ from ..data import table
 FILE = "plant_chemicals.csv"
 # database chemicals and the phase each is locked to (None: volatile)
 DATABASE = {"Water": None, "EthyleneGlycol": None, "NaOH": "l", "H2SO4": "l", "TerephthalicAcid": "s",
-            "Na2SO4": "s", "O2": None, "N2": None}
+            "Na2SO4": "s", "O2": None, "N2": None,
+            "CO2": "g"}
 DEFINED = {"PET": "s", "Na2TPA": "l", "Polyolefin": "s"}
 SYNONYMS = {"EthyleneGlycol": "EG", "TerephthalicAcid": "TPA"}
 

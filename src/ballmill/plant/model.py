@@ -14,7 +14,7 @@ import biosteam as bst
 import pandas as pd
 
 from .correlations import price
-from .footprint import STEAM, breakdown_kg_per_kg, characterize, factors
+from .footprint import STEAM, allocation_kg_per_kg, breakdown_kg_per_kg, characterize, factors
 from .system import MillSpec, PlantSystem, build
 from .tea import PlantTEA, cepci, configure_utilities, prices_usd_per_kg
 
@@ -76,14 +76,14 @@ class Plant:
         return pd.DataFrame(rows)
 
     def cross_check(self, u) -> dict:
-        """The unit's purchase cost by its second correlation (cost year $), if it has one."""
-        if u.ID not in CROSS_CHECKS:
+        """The unit's purchase cost by its second correlation (cost year $), if it has one and is priced."""
+        if u.ID not in CROSS_CHECKS or not u.purchase_cost:
             return {}
         key, size = CROSS_CHECKS[u.ID]
         index = cepci(self.cfg.cost_year)
-        sizes = [a for a in u._As if a > 0] if size is None else [size(u)]  # the evaporator: body by body
+        sizes = u.body_areas_m2() if size is None else [size(u)]  # the evaporator: body by body
         parts = [price(key, each, index) for each in sizes]
-        base = u.purchase_costs.get(ITEMS.get(u.ID), u.purchase_cost) / u.cost_factor
+        base = u.purchase_costs.get(ITEMS.get(u.ID), u.purchase_cost) / (u.cost_factor * u.material_factor)
         second = sum(p.usd for p in parts)
         return {"second_correlation": key, "second_purchase_cost_usd": second, "second_over_base": second / base,
                 "second_below_range": any(p.below_range for p in parts)}
@@ -119,11 +119,16 @@ class Plant:
                "msp_usd_per_kg": msp, "msp_capital_usd_per_kg": msp - sum(costs.values()) / kg_per_yr}
         out |= {f"msp_{name.lower()}_usd_per_kg": usd / kg_per_yr for name, usd in costs.items()}
         share = mill.installed_cost / t.installed_equipment_cost
-        section = (out["msp_capital_usd_per_kg"] * share + (mill.installed_cost * self.cfg.maintenance_fraction
-                   + mill.power_utility.cost * t.operating_hours) / kg_per_yr)
+        maintenance = t.maintenance_usd_per_yr(t.FCI) * mill.installed_cost / t.isbl_installed_usd
+        section = (out["msp_capital_usd_per_kg"] * share + (maintenance + mill.power_utility.cost * t.operating_hours)
+                   / kg_per_yr)
         out |= {"msp_mill_section_usd_per_kg": section, "msp_mill_share": section / msp,
                 "virgin_tpa_usd_per_kg": self.prices["tpa"], "virgin_tpa_gwp_kg_per_kg": self.cf["virgin_tpa"]}
-        out |= {f"gwp_{k.lower()}_kg_per_kg": v for k, v in self.footprint().items()}
+        parts = self.footprint()
+        out |= {f"gwp_{k.lower()}_kg_per_kg": v for k, v in parts.items()}
+        products = {"rTPA": (self.rtpa.F_mass, self.prices["tpa"])} | {
+            ID: (streams[ID].F_mass, max(0.0, streams[ID].price)) for ID in ("EG", "Na2SO4") if streams[ID].isproduct()}
+        out |= {f"gwp_{k}_allocation_kg_per_kg": v for k, v in allocation_kg_per_kg(parts, products).items()}
         return out
 
 
@@ -132,11 +137,11 @@ def plant(mill: MillSpec, cfg, econ, region: str | None = None, name: str = "pla
     econ: EconomicsConfig; region: a state code for its grid)."""
     cfg = replace(cfg)
     index = cepci(cfg.cost_year)
-    prices = prices_usd_per_kg(econ.prices_file)
+    prices = prices_usd_per_kg(econ.prices_file) | {k: v / 1000.0 for k, v in cfg.prices_usd_per_t.items()}
     prices["na2so4"] = cfg.na2so4_usd_per_t / 1000.0
     configure_utilities(prices, econ.electricity_usd_per_kwh, index)
     ps = build(mill, cfg, prices, index, name)
-    cf = factors()
-    characterize(ps.streams, cf, region)
+    cf = factors() | dict(cfg.ghg_kg_co2e)
+    characterize(ps.streams, cf, region, cfg.landfill)
     tea = PlantTEA(ps.system, cfg, econ.hours_per_year, cfg.cost_year)
     return Plant(ps, tea, mill, cfg, econ, region, prices, cf)

@@ -15,59 +15,75 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..config import EvaporationConfig, HeatConfig, SodiumConfig
 from . import uncertainty
 from .correlations import price
 from .model import Plant, plant
 from .system import MillSpec
 from .tea import cepci
+from .what_it_takes import break_even
 
 log = logging.getLogger(__name__)
 BAND = (5, 50, 95)  # percentiles of the Monte Carlo reported beside the base value
 
 
 def variants(p: Plant) -> pd.DataFrame:
-    """The MSP and footprint with one modelling choice undone at a time (the plant restored
-    after each): what each choice moves."""
-    u, s, cfg, tea = p.ps.units, p.ps.streams, p.cfg, p.tea
-    evap = u["E401"]
+    """The MSP and footprint with one modelling choice undone (or one option taken) at a time:
+    what each moves.  A choice of the config rebuilds the plant; the evaporator's pricing varies
+    the built plant (restored after); the footprint's boundary and the wastewater's CO2 are read
+    from the base's breakdown."""
+    cfg, base = p.cfg, p.evaluate()
+    evap = p.ps.units["E401"]
     bodies = evap.baseline_purchase_costs["Evaporators"] / evap.cost_factor
     total = sum(evap.baseline_purchase_costs.values()) / evap.cost_factor
-    one_body = price(cfg.evaporator_cost, sum(evap._As), cepci(cfg.cost_year)).usd
-
-    def evap_factor(new_bodies):
-        return lambda: setattr(evap, "cost_factor", (total - bodies + new_bodies) / total)
-
-    def set_(obj, **kw):
-        return lambda: [setattr(obj, k, v) for k, v in kw.items()]
-
-    cases = {
-        "evaporator as one body of the summed area": evap_factor(one_body),
-        "evaporator bodies at BioSTEAM's own price": evap_factor(evap.design_results["BioSTEAM bodies"]),
-        "20 staff at every scale": set_(cfg, staffing="fixed", staff=20),
-        "EG credited at the virgin price": set_(s["EG"], price=p.prices["eg"]),
-        "Na2SO4 sold (USGS 2008-2011 price)": set_(s["Na2SO4"], price=p.prices["na2so4_sale"]),
-        "Na2SO4 landfilled": set_(s["Na2SO4"], price=-p.prices["disposal"]),
-        "bales all PET, nothing lost in granulating": set_(cfg, bale_pet_fraction=1.0, flake_loss_fraction=0.0),
-        "no start-up period": set_(tea, startup_months=0.0),
-        "no debt (all equity)": set_(tea, finance_fraction=0.0),
-    }
-    base = p.evaluate()
+    one_body = price(cfg.evaporator_cost, sum(evap.body_areas_m2()), cepci(cfg.cost_year)).usd
+    pricings = {"evaporator as one body of the summed area": one_body,
+                "evaporator bodies at BioSTEAM's own price": evap.design_results.get("BioSTEAM bodies")}  # multi_effect
     rows = [{"variant": "base", **base}]
-    for name, apply in cases.items():
-        saved = (evap.cost_factor, replace(cfg), s["EG"].price, s["Na2SO4"].price, tea.startup_months,
-                 tea.finance_fraction)
-        apply()
+    for name, new_bodies in ((k, v * evap.material_factor) for k, v in pricings.items() if v is not None):
+        saved, evap.cost_factor = evap.cost_factor, (total - bodies + new_bodies) / total
         rows.append({"variant": name, **p.evaluate()})
-        evap.cost_factor, old, s["EG"].price, s["Na2SO4"].price, tea.startup_months, tea.finance_fraction = saved
-        for k in ("staffing", "staff", "bale_pet_fraction", "flake_loss_fraction"):
-            setattr(cfg, k, getattr(old, k))
-    powder = plant(p.mill, replace(cfg, feed_form="powder"), p.econ, p.region, name="powder")
-    rows.append({"variant": "fine powder instead of flake (pulveriser)", **powder.evaluate()})
-    p.evaluate()
+        evap.cost_factor = saved
+    for name, change in CONFIG_VARIANTS.items():
+        kw = change(p.prices) if callable(change) else change
+        rows.append({"variant": name, **plant(p.mill, replace(cfg, **kw), p.econ, p.region, name="variant").evaluate()})
+    record = p.record(p.evaluate()["msp_usd_per_kg"])
+    rows += [{"variant": "fossil CO2 of the oxidised wastewater organics left out", **base,
+              "gwp_kg_per_kg": base["gwp_kg_per_kg"] - record["gwp_treatment_co2_kg_per_kg"]},
+             {"variant": "mass allocation instead of system expansion", **base,
+              "gwp_kg_per_kg": record["gwp_mass_allocation_kg_per_kg"]},
+             {"variant": "economic allocation (virgin prices) instead of system expansion", **base,
+              "gwp_kg_per_kg": record["gwp_economic_allocation_kg_per_kg"]}]
     out = pd.DataFrame(rows)
     out["msp_change_usd_per_kg"] = out.msp_usd_per_kg - base["msp_usd_per_kg"]
     out["gwp_change_kg_per_kg"] = out.gwp_kg_per_kg - base["gwp_kg_per_kg"]
     return out
+
+
+# variant -> the plant config's fields it changes (or a function of the prices, $/kg, giving them)
+CONFIG_VARIANTS = {
+    "EG stripper recovering 69 % (V summed over the salts too)": {"eg_stripper_recovery": 0.6933},
+    "20 staff at every scale": {"staffing": "fixed", "staff": 20},
+    "EG credited at the virgin price": {"eg_price_fraction": 1.0},
+    "Na2SO4 sold (USGS 2008-2011 price)": lambda prices: {"na2so4_usd_per_t": prices["na2so4_sale"] * 1000.0},
+    "Na2SO4 landfilled (plant/sodium=landfilled)": {"sodium": SodiumConfig(kind="landfilled")},
+    "NaOH dosed only on the PET that converts": {"naoh_dosing": "converting_pet"},
+    "crystallizer priced beside the evaporator's last body": {"crystallizer": "separate"},
+    "units in brine of carbon steel": {"brine_material": "carbon_steel"},
+    "landfilled plastics and salt at the organic-waste factor": {"landfill": "landfill"},
+    "maintenance 6 % of the fixed capital": {"maintenance_basis": "fixed_capital", "maintenance_fraction": 0.06},
+    "contingency 20 % of the direct cost": {"contingency": 0.20},
+    "working capital 15 % of the fixed capital": {"working_capital_fraction": 0.15},
+    "bales all PET, nothing lost in granulating": {"bale_pet_fraction": 1.0, "flake_loss_fraction": 0.0},
+    "no start-up period": {"startup_months": 0.0},
+    "no debt (all equity)": {"loan_fraction": 0.0},
+    "fine powder instead of flake (pulveriser)": {"feed_form": "powder"},
+    "the evaporator's feed not preheated by its condensate": {"evaporation": EvaporationConfig(feed_preheat=False)},
+    "evaporation by vapour recompression (plant/evaporation=mvr)": {"evaporation": EvaporationConfig(kind="mvr")},
+    "steam from an electric boiler (plant/heat=electric_boiler)": {"heat": HeatConfig(kind="electric_boiler")},
+    "steam from the sorted-out plastics (plant/heat=residue_boiler)": {"heat": HeatConfig(kind="residue_boiler")},
+    "Na2SO4 split back to NaOH and H2SO4 (plant/sodium=bpmed)": {"sodium": SodiumConfig(kind="bpmed")},
+}
 
 
 def run(mill: MillSpec, cfg, econ, region: str | None, power_se_kw: float, out_dir: Path) -> dict:
@@ -82,6 +98,11 @@ def run(mill: MillSpec, cfg, econ, region: str | None, power_se_kw: float, out_d
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the base case's design warnings are recorded; its variants' would repeat them
         variants(p).to_csv(out_dir / "variants.csv", index=False)
+        if cfg.what_it_takes:
+            own = plant(mill, cfg, econ, region, name="what_it_takes")  # its levers leave the base plant as it is
+            own.evaluate()
+            break_even(own, cfg.what_it_takes, cfg.what_it_takes_span).to_csv(out_dir / "what_it_takes.csv",
+                                                                                index=False)
         m = uncertainty.model(p, power_se_kw)
         uncertainty.tornado(m).to_csv(out_dir / "tornado.csv", index=False)
         if cfg.monte_carlo_draws:

@@ -5,15 +5,18 @@
     200 reaction          ball mill (PET + 2 NaOH, with the recycled PET) -> dissolver (water)
                           -> PET filter: unreacted PET back to the mill, less a purge
     300 TPA               acidifier (H2SO4) -> TPA filter (wash water) -> steam dryer -> rTPA
-    400 salt and EG       mother liquor -> multiple-effect evaporator -> Na2SO4 crystallizer
-                          -> centrifuge -> steam dryer -> Na2SO4; liquor -> EG stripper (vacuum
-                          flash) -> EG column (water off the top, EG from the bottom); residue
-    500 wastewater        condensates and the column's water -> treatment (priced by COD)
-    600 storage, cooling  acid and EG tanks, cooling tower; steam is bought (its price per kg)
+    400 salt and EG       mother liquor -> evaporator (plant.evaporation) -> Na2SO4 crystallizer
+                          (the last body, or a unit of its own) -> centrifuge -> steam dryer ->
+                          Na2SO4; liquor -> EG stripper (flash) -> EG column (water off the
+                          top, EG from the bottom); residue
+    500 wastewater        condensates and the column's water -> treatment (priced by COD; its
+                          organics oxidised to fossil CO2)
+    600 storage, cooling  acid and EG tanks, cooling tower; steam bought or made on site (plant.heat)
 
 The mill's PET throughput is the designed one: the bale feed follows from the conversion per
 pass, the purge, the bale's PET content and the fines lost, so that the recycle loop closes at
 it.  Prices ($/kg) are those of the PlantPrices given; utilities are set by tea.configure.
+The units in acidic sulfate brine (BRINE_UNITS) carry the material factor of plant.brine_material.
 """
 
 from __future__ import annotations
@@ -22,12 +25,25 @@ from dataclasses import dataclass
 
 import biosteam as bst
 
+from ..data import lookup
 from .chemicals import create_chemicals, value
-from .units import Acidifier, BallMillReactor, Evaporator, SaltCrystallizer, SizeReduction, WastewaterTreatment, scaled
+from .evaporation import EVAPORATORS
+from .heat import SOURCES
+from .sodium import FATES
+from .units import (
+    Acidifier,
+    BallMillReactor,
+    SaltCrystallizer,
+    SizeReduction,
+    WastewaterTreatment,
+    scaled,
+    vapour_fraction_for,
+)
 
-EVAPORATOR_PRESSURES_PA = (101325.0, 60000.0, 25000.0)  # three effects, the last under vacuum
-RECYCLE_TOLERANCE_KMOL_PER_H = 1e-5
-RECYCLE_RELATIVE_TOLERANCE = 1e-7
+RECYCLE_TOLERANCE_KMOL_PER_H = 1e-7
+RECYCLE_RELATIVE_TOLERANCE = 1e-9
+BRINE_UNITS = ("S301", "E401", "C401", "S401")  # acidified liquor: TPA filter, evaporator, crystallizer, centrifuge
+NAOH_DOSED_ON = {"whole_feed": lambda conversion: 1.0, "converting_pet": lambda conversion: conversion}
 
 
 @dataclass(frozen=True)
@@ -105,7 +121,8 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
 
     @R201.add_specification(run=True)
     def naoh_for_the_pet():
-        naoh.imol["NaOH"] = 2 * mill.naoh_to_stoichiometric * R201.ins[0].imol["PET"]
+        share = NAOH_DOSED_ON[cfg.naoh_dosing](R201.conversion)
+        naoh.imol["NaOH"] = 2 * mill.naoh_to_stoichiometric * share * R201.ins[0].imol["PET"]
 
     T201 = scaled(bst.MixTank)("T201", ins=(R201 - 0, water), tau=cfg.tank_residence_time_h)
 
@@ -141,11 +158,10 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
 
     # 400 salt and EG
     P401 = bst.Pump("P401", ins=S301 - 1)
-    E401 = Evaporator("E401", ins=P401 - 0, outs=("concentrate", "condensate"), key=cfg.evaporator_cost, cepci=cepci,
-                      P=EVAPORATOR_PRESSURES_PA, V=cfg.evaporated_water_fraction, V_definition="Overall")
+    E401, condensate = EVAPORATORS[cfg.evaporation.kind]("E401", P401 - 0, cfg, cepci)
     C401 = SaltCrystallizer("C401", ins=E401 - 0, solubility=value("Na2SO4", "solubility_kg_per_kg_water"),
-                            key=cfg.crystallizer_cost, cepci=cepci)
-    S401 = bst.SolidsCentrifuge("S401", ins=C401 - 0, outs=("salt_cake", "EG_liquor"), split={"Na2SO4": 1.0},
+                            key=cfg.crystallizer_cost, cepci=cepci, priced=cfg.crystallizer == "separate")
+    S401 = scaled(bst.SolidsCentrifuge)("S401", ins=C401 - 0, outs=("salt_cake", "EG_liquor"), split={"Na2SO4": 1.0},
                                 solids=("Na2SO4",), moisture_content=cfg.salt_cake_moisture)
 
     @S401.add_specification(run=True)
@@ -161,22 +177,27 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
 
     @F401.add_specification(run=True)
     def strip_the_eg():
-        liquor = F401.ins[0]
-        volatile = liquor.imol["Water"] + cfg.eg_stripper_recovery * liquor.imol["EthyleneGlycol"]
-        F401.V = volatile / liquor.F_mol if liquor.F_mol else 0.0
+        F401.V = vapour_fraction_for(F401.ins[0], F401.P, "EthyleneGlycol", cfg.eg_stripper_recovery)
+
     D402 = scaled(bst.BinaryDistillation)("D402", ins=F401 - 0, outs=("column_water", "EG_product"),
                                           LHK=("Water", "EthyleneGlycol"), Lr=cfg.eg_column_water_recovery,
                                           Hr=cfg.eg_column_eg_recovery, k=cfg.eg_column_reflux_to_minimum,
                                           P=cfg.eg_column_pressure_pa, vessel_material="Stainless steel 304")
 
     # 500 wastewater, 600 storage and cooling
-    M501 = bst.Mixer("M501", ins=(E401 - 1, D402 - 0))
-    WastewaterTreatment("W501", ins=M501 - 0, outs=S("treated_water"), usd_per_kg_cod=prices["cod_removal"])
+    M501 = bst.Mixer("M501", ins=(condensate, D402 - 0))
+    WastewaterTreatment("W501", ins=(M501 - 0, S("treatment_air")), outs=(S("treated_water"), S("treatment_CO2")),
+                        usd_per_kg_cod=prices["cod_removal"])
     bst.StorageTank("T602", ins=D402 - 1, outs=eg, vessel_material="Stainless steel")
     CT = bst.CoolingTower("CT")
     CT.ins[2].price = prices["cooling_tower_chemicals"]
+    FATES[cfg.sodium.kind]({s.ID: s for s in fs.stream}, cfg, prices, cepci)
+    SOURCES[cfg.heat.kind]({s.ID: s for s in fs.stream}, cfg, cepci)
     system = fs.create_system("plant")
     # BioSTEAM's defaults (1 kmol/h, 1 %) leave the PET recycle (~2 kmol/h) path-dependent by ~1 % of the MSP
     system.set_tolerance(mol=RECYCLE_TOLERANCE_KMOL_PER_H, rmol=RECYCLE_RELATIVE_TOLERANCE, subsystems=True)
     streams = {s.ID: s for s in fs.stream}
-    return PlantSystem(system, fs, streams, {u.ID: u for u in fs.unit})
+    units = {u.ID: u for u in fs.unit}
+    for ID in BRINE_UNITS:
+        units[ID].material_factor = lookup("material_factors.csv", "material", cfg.brine_material, "factor")
+    return PlantSystem(system, fs, streams, units)

@@ -5,7 +5,8 @@ Capital: installed equipment (each unit's purchase cost x its bare-module factor
 site development and additional piping on the inside-battery-limits (ISBL) part = direct cost;
 + prorateable, field, construction and contingency = depreciable capital; + other indirect =
 fixed capital; working capital a share of it.  Fixed operating cost: labour (the staffing rule
-below) with its burden, maintenance on ISBL, property insurance on fixed capital.  Variable
+below) with its burden, maintenance on ISBL installed cost (NREL) or on the fixed capital
+(plant.maintenance_basis), property insurance on fixed capital.  Variable
 cost: the streams' prices and the utilities.  `solve_price` finds the rTPA price at which the
 net present value at the internal rate of return is zero (the minimum selling price).
 
@@ -19,11 +20,16 @@ from __future__ import annotations
 import math
 
 import biosteam as bst
+import flexsolve as flx
+import numpy as np
+from biosteam._tea import NPV_with_sales
 
 from ..data import lookup, table
+from .units import OnSiteSteam
 
 STAFFING_FILE = "staffing.csv"
-OSBL = (bst.StorageTank, bst.CoolingTower)  # outside the battery limits: no warehouse/site/piping add-on
+SALES_TOLERANCE_USD_PER_YR = 1e-4  # BioSTEAM stops within 10 $/yr of sales, ~1e-6 of the MSP: start-dependent
+OSBL = (bst.StorageTank, bst.CoolingTower, OnSiteSteam)  # outside the battery limits: no warehouse/site/piping add-on
 
 
 def operators_per_shift(units) -> float:
@@ -59,6 +65,20 @@ class PlantTEA(bst.TEA):
             finance_years=cfg.loan_years, finance_fraction=cfg.loan_fraction)
         self.cfg = cfg
 
+    def solve_sales(self) -> float:
+        """Yearly sales ($) to add for NPV = 0: BioSTEAM's answer refined by secant steps to
+        SALES_TOLERANCE_USD_PER_YR, so that the MSP does not depend on where the solver started."""
+        rough = super().solve_sales()
+        years = self._get_duration_array()
+        coefficients = np.ones_like(years, dtype=float)
+        coefficients[:self._start] = 0.0
+        coefficients[self._start] = self._startup_time * self.startup_salesfrac + 1.0 - self._startup_time
+        args = (*self._taxable_nontaxable_depreciation_cashflows(), coefficients, (1 + self.IRR) ** years,
+                self._fill_tax_and_incentives)
+        self._sales = flx.aitken_secant(NPV_with_sales, rough, rough + 1.0, xtol=SALES_TOLERANCE_USD_PER_YR,
+                                        ytol=SALES_TOLERANCE_USD_PER_YR, maxiter=100, args=args, checkiter=True)
+        return self._sales
+
     @property
     def isbl_installed_usd(self) -> float:
         return sum(u.installed_cost for u in self.units if not isinstance(u, OSBL))
@@ -85,9 +105,14 @@ class PlantTEA(bst.TEA):
     def _FCI(self, TDC):
         return TDC + self.DPI * self.cfg.other_indirect
 
+    def maintenance_usd_per_yr(self, FCI: float) -> float:
+        c = self.cfg
+        basis = {"isbl_installed": self.isbl_installed_usd, "fixed_capital": FCI}[c.maintenance_basis]
+        return basis * c.maintenance_fraction
+
     def _FOC(self, FCI):
         c = self.cfg
-        return (FCI * c.insurance_fraction + self.isbl_installed_usd * c.maintenance_fraction
+        return (FCI * c.insurance_fraction + self.maintenance_usd_per_yr(FCI)
                 + self.labour_usd_per_yr * (1.0 + c.labour_burden))
 
 

@@ -79,7 +79,7 @@ def setters(p: Plant, power_se_kw: float) -> dict[str, tuple[float, Callable[[fl
     def ghg(item):
         def set_(v):
             p.cf[item] = v
-            characterize(s, p.cf, p.region)
+            characterize(s, p.cf, p.region, cfg.landfill)
         return p.cf[item], set_
     for item in p.cf:
         out[f"ghg.{item}"] = ghg(item)

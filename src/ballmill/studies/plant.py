@@ -30,10 +30,11 @@ def check_plant_tables(plant, prices_file: str) -> None:
     """The plant's data tables hold the columns and rows its config names (before BioSTEAM is
     imported)."""
     keys = set(table("cost_correlations.csv").key)
-    for name in ("granulator_cost", "pulveriser_cost", "evaporator_cost", "crystallizer_cost"):
-        if getattr(plant, name) not in keys:
-            raise ConfigError(f"plant.{name}={getattr(plant, name)!r} is not a row of data/cost_correlations.csv; "
-                              f"have {sorted(keys)}")
+    rows = {f"plant.{name}": getattr(plant, name) for name in ("granulator_cost", "pulveriser_cost", "evaporator_cost",
+                                                                "crystallizer_cost")}
+    for name, key in (rows | {"plant.evaporation.compressor_cost": plant.evaporation.compressor_cost}).items():
+        if key not in keys:
+            raise ConfigError(f"{name}={key!r} is not a row of data/cost_correlations.csv; have {sorted(keys)}")
     for name, columns in ((prices_file, ["item", "price_usd_per_t"]), ("ghg_factors.csv", ["item", "kg_co2e"]),
                           ("staffing.csv", ["unit", "workers_per_unit_per_shift"]),
                           ("plant_chemicals.csv", ["chemical", "property", "value"]),
@@ -46,6 +47,17 @@ def check_plant_tables(plant, prices_file: str) -> None:
     if missing:
         raise ConfigError(f"economics.prices_file={prices_file}: no price for {missing} (the plant needs them)")
     lookup("cepci.csv", "year", plant.cost_year, "cepci")
+    lookup("material_factors.csv", "material", plant.brine_material, "factor")
+    levers = set(table("plant_uncertainty.csv").parameter)
+    unknown = sorted(set(plant.what_it_takes) - levers)
+    if unknown:
+        raise ConfigError(f"plant.what_it_takes: {unknown} are not parameters of data/plant_uncertainty.csv; have "
+                          f"{sorted(levers)}")
+    for name, file, column in (("prices_usd_per_t", prices_file, "item"), ("ghg_kg_co2e", "ghg_factors.csv", "item")):
+        unknown = sorted(set(getattr(plant, name)) - set(table(file)[column]))
+        if unknown:
+            raise ConfigError(f"plant.{name}: no item {unknown} in data/{file}; have {sorted(table(file)[column])}")
+
 
 
 def plan_plant(s: Scenario) -> Plan:
@@ -67,9 +79,10 @@ def plan_plant(s: Scenario) -> Plan:
     if not 0.0 < conversion <= 1.0:
         raise ConfigError(f"study=plant: the mill's conversion per pass is {conversion:.3g}; it must lie in (0, 1] "
                           "(a yield of 0 % makes no product: raise the BPR or the residence time)")
-    if scale.naoh_to_stoichiometric < conversion:
-        raise ConfigError(f"scaleup.naoh_to_stoichiometric={scale.naoh_to_stoichiometric} is below the conversion "
-                          f"{conversion:.3g}: the mill would run out of NaOH")
+    least = conversion if s.plant.naoh_dosing == "whole_feed" else 1.0  # NaOH per PET through the mill, or converting
+    if scale.naoh_to_stoichiometric < least:
+        raise ConfigError(f"scaleup.naoh_to_stoichiometric={scale.naoh_to_stoichiometric} is below {least:.3g} with "
+                          f"plant.naoh_dosing={s.plant.naoh_dosing}: the mill would run out of NaOH")
     check_plant_tables(s.plant, s.economics.prices_file)
     mill_pet = mill_throughput_kg_per_h(fresh, conversion, s.plant.recycle_purge_fraction)
     mill_plan = plan_design(replace(s, scaleup=replace(scale, pet_feed_kg_per_h=mill_pet, region=None)))

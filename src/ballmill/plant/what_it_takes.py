@@ -1,0 +1,56 @@
+"""What it takes: per lever, the value at which rTPA's MSP equals virgin TPA's price and the
+one at which its footprint equals virgin PTA's, the other inputs at the base (root finding on
+the built plant, each lever set through the uncertainty's setters and restored after)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pandas as pd
+from scipy.optimize import brentq
+
+from ..config import PlantConfig
+from . import uncertainty
+from .model import Plant
+
+RELATIVE_TOLERANCE = 1e-6
+
+
+def search_range(lever: str, base: float, span: float) -> tuple[float, float]:
+    """[base / span, base x span], within the plant field's own range for a plant.* lever."""
+    lo, hi = base / span, base * span
+    ranges = {f"plant.{f.name}": f.metadata["range"] for f in dataclasses.fields(PlantConfig) if "range" in f.metadata}
+    if lever in ranges:
+        low, high, *_ = ranges[lever]
+        lo, hi = max(lo, low if low is not None else lo), min(hi, high if high is not None else hi)
+    return lo, hi
+
+
+def break_even(p: Plant, levers: list[str], span: float) -> pd.DataFrame:
+    """Per lever: its base, the value giving MSP = virgin TPA's price ($/kg) and the one giving
+    footprint = virgin PTA's (kg CO2e/kg), each searched over search_range; NaN where the target
+    is not crossed there (the lever alone cannot reach it)."""
+    known = uncertainty.setters(p, 0.0)
+    targets = {"msp_usd_per_kg": p.prices["tpa"], "gwp_kg_per_kg": p.cf["virgin_tpa"]}
+    rows = []
+    for lever in levers:
+        base, set_ = known[lever]
+        row = {"lever": lever, "base": base}
+        for indicator, target in targets.items():
+
+            def gap(v: float, set_=set_, indicator=indicator, target=target) -> float:
+                set_(v)
+                return p.evaluate()[indicator] - target
+
+            lo, hi = search_range(lever, base, span)
+            crossed = gap(lo) * gap(hi) < 0
+            root = brentq(gap, lo, hi, xtol=RELATIVE_TOLERANCE * abs(base)) if crossed else math.nan
+            row[f"{indicator.split('_')[0]}_break_even"] = root
+        set_(base)
+        rows.append(row)
+    p.evaluate()
+    out = pd.DataFrame(rows)
+    out["msp_break_even_over_base"] = out.msp_break_even / out.base
+    out["gwp_break_even_over_base"] = out.gwp_break_even / out.base
+    return out
