@@ -1,3 +1,4 @@
+import os
 import sys
 from pathlib import Path
 
@@ -8,6 +9,41 @@ sys.path.insert(0, str(Path(__file__).parent))
 from helpers import DRUM_SIM, MATERIALS, PAIRS, small_drum  # importable once the path above is set
 
 from ballmill.drum import simulate_drum
+
+pytest_plugins = ["pytester"]  # tests/test_ci_skips.py runs sessions of its own
+
+
+class SkipsFailCI:
+    """On CI (the variable CI set), a skipped test fails the run: it is a check that was asked
+    for and could not run.  The one skip allowed is the CUDA comparison's (tests/test_cuda.py),
+    on a machine with no CUDA device."""
+
+    allowed = frozenset({"test_cuda.py"})
+
+    def __init__(self):
+        self.skipped = []
+
+    def record(self, report):
+        if report.skipped and not hasattr(report, "wasxfail") and \
+                Path(report.nodeid.split("::")[0]).name not in self.allowed:
+            self.skipped.append(report.nodeid)
+
+    pytest_runtest_logreport = pytest_collectreport = record
+
+    def pytest_sessionfinish(self, session):
+        if self.skipped and session.exitstatus == pytest.ExitCode.OK:
+            session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+    def pytest_terminal_summary(self, terminalreporter):
+        if self.skipped:
+            terminalreporter.write_line(f"CI: {len(self.skipped)} skipped, which fails the run (only "
+                                        f"{', '.join(sorted(self.allowed))} may skip): {', '.join(self.skipped)}",
+                                        red=True)
+
+
+def pytest_configure(config):
+    if os.environ.get("CI"):
+        config.pluginmanager.register(SkipsFailCI(), "skips_fail_ci")
 
 
 @pytest.fixture(scope="session")

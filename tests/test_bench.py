@@ -6,10 +6,13 @@ import subprocess
 import sys
 
 import pytest
+from helpers import floor_system
+from test_contact_physics import STEEL
 
 import ballmill.bench
 from ballmill.bench import REFERENCE, case_drum, core_balance, machine, peer_names
 from ballmill.cli import compose_command, options
+from ballmill.dem import Engine, EngineOptions, init_taichi, memory_estimate_bytes
 from ballmill.drum import ball_count
 from ballmill.files import read_json
 
@@ -100,3 +103,22 @@ def test_a_large_case_is_compared_with_the_reference_drum_over_the_same_windows(
     assert "size_ratio" not in rows[0]
     assert rows[1]["size_ratio"] == pytest.approx(0.8) and rows[1]["size_ratio_lammps_2_ranks"] == pytest.approx(0.8)
     assert rows[1]["reference_particle_steps_per_s"] == 1e7 and "size_ratio_ratio_to_lammps_2_ranks" not in rows[1]
+
+
+def test_the_engines_field_bytes_are_counted_from_the_fields_declared():
+    """Three balls on a floor (64 particle slots): an engine with 2 more neighbour-list slots a
+    particle and 200 more buffered collisions holds, by hand from the fields' declarations,
+    64 x 2 x 105 B (partner, reverse slot and new partner, i32; record name, u8; a contact's
+    start, i32, normal speed and dissipated energy, f64, history, force on i and torque on j,
+    3 x f64 each) plus 200 x 32 B (4 x i32 and 2 x f64) more; each within the estimate that
+    admits a run (it counts the records' padding as well).  The bench's bytes per particle are
+    these over the balls (the resident memory it read before was a difference of two readings
+    that the allocator's reuse can make negative: -2009 B on the reference drum)."""
+    init_taichi("cpu", "f64")
+    spec = floor_system(STEEL, 0.01, [[0.0, 0.0, -1.0]] * 3)
+    small, large = (Engine(spec, EngineOptions(dt_s=1e-6, max_contacts_per_particle=k, event_capacity=events))
+                    for k, events in ((4, 100), (6, 300)))
+    slot = 3 * 4 + 1 + 4 + 2 * 8 + 3 * 3 * 8
+    assert slot == 105 and large.field_bytes() - small.field_bytes() == 64 * 2 * slot + 200 * (4 * 4 + 2 * 8)
+    for engine, k, events in ((small, 4, 100), (large, 6, 300)):
+        assert 0 < engine.field_bytes() <= memory_estimate_bytes(3, k, events, 1)

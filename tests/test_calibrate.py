@@ -2,8 +2,10 @@
 not told, track the videos, calibrate on a grid, and recover the hidden pair.
 
 Mean ball speed hardly depends on the pair; the video collision rate carries the restitution
-(tens of collisions per second more per +0.3), the friction only weakly: the test asks for the
-restitution exactly and the friction within one grid step.
+(tens of collisions per second more per +0.3), the friction more weakly (measured near the
+pair: -0.28 of the rate per unit friction against +3.2 per unit restitution), yet enough on
+this grid: the test asks for both exactly, the friction's neighbours scoring over three times
+the best (measured 6.1 and 12.9 times).
 """
 
 import json
@@ -43,8 +45,9 @@ def test_calibration_recovers_the_hidden_pair(experiment):
     assert (obs.lost_ball_frames == 0).all()
     surface, simulated, best = calibrate(obs, s.lab, GRID, s.materials, s.interactions, s.sim)
     assert len(surface) == 9 and len(simulated) == 18
-    assert best["wall_restitution"] == HIDDEN[0], surface
-    assert abs(best["wall_friction"] - HIDDEN[1]) <= 0.2 + 1e-9, surface
+    assert (best["wall_restitution"], best["wall_friction"]) == HIDDEN, surface
+    line = surface[surface.wall_restitution == HIDDEN[0]].set_index("wall_friction").score
+    assert line.drop(HIDDEN[1]).min() > 3 * line[HIDDEN[1]], surface
     assert best["speed_rms_error"] < 0.25  # 1.2 s runs: the seed alone moves mean speed ~15 %
 
 
@@ -74,9 +77,11 @@ def smooth_response(obs, lab, pairs, materials, interactions, sim, repeats=1):
 @pytest.mark.parametrize("seed", range(3))
 def test_bayesian_search_finds_the_minimum_of_a_smooth_response_in_nine_trials(monkeypatch, seed):
     """The search machinery against a known minimum (the synthetic videos are too noisy for a
-    0.05 resolution: docs/explanation/lab.md): restitution within 0.05, friction within one
-    grid step (0.2; the statistics hardly depend on it), in as many trials as the test grid has
-    points."""
+    0.05 resolution: docs/explanation/lab.md), in as many trials as the test grid has points:
+    restitution within 0.05; the friction, on which the statistics hardly depend, within 0.17
+    of it (the range, 0.1-0.5, allows 0.2), the score below 0.02 (0 at the minimum); measured
+    over the three seeds: restitution 0.037, 0.049, 0.030 off, friction 0.157, 0.074, 0.026,
+    score 0.011, 0.016, 0.0075."""
     import ballmill.calibrate as cal
 
     monkeypatch.setattr(cal, "simulate_grid", smooth_response)
@@ -87,7 +92,7 @@ def test_bayesian_search_finds_the_minimum_of_a_smooth_response_in_nine_trials(m
     trials, _, best = cal.search(obs, None, opts, None, None, None)
     assert len(trials) == 9 and trials.best_score.is_monotonic_decreasing
     assert abs(best["wall_restitution"] - HIDDEN[0]) < 0.05, trials
-    assert abs(best["wall_friction"] - HIDDEN[1]) <= 0.2, trials
+    assert abs(best["wall_friction"] - HIDDEN[1]) < 0.17 and best["score"] < 0.02, trials
     again, _, _ = cal.search(obs, None, opts, None, None, None)
     pd.testing.assert_frame_equal(trials, again)  # seeded: the same trials every time
 
@@ -100,7 +105,7 @@ def test_calibrate_both_methods_writes_the_comparison(experiment, tmp_path):
           "frictions=[0.1,0.3,0.5]", "trials=6", "batch=3"])
     best = json.loads((tmp_path / "best.json").read_text())
     assert best["method"] == "both" and best["grid_points"] == 9 and best["search_trials"] == 6
-    assert best["wall_restitution"] == HIDDEN[0]
+    assert (best["wall_restitution"], best["wall_friction"]) == HIDDEN
     surface, trials = pd.read_csv(tmp_path / "score_surface.csv"), pd.read_csv(tmp_path / "trials.csv")
     same = {"rel": 1e-12}  # the tables' CSV keeps 15 digits, best.json all 17
     assert best["score"] == pytest.approx(surface.score.min(), **same)

@@ -46,16 +46,26 @@ def test_torque_arm_power_of_a_point_mass():
 def test_morrell_angles_at_a_worked_point():
     toe, shoulder = morrell_toe_shoulder_deg(0.30, 0.75)  # JKMRC C-model, as tabulated
     assert toe == pytest.approx(231.8, abs=0.2) and shoulder == pytest.approx(47.3, abs=0.2)
-    assert morrell_net_power_w(1.0, 1.0, 30.0, 0.3, 4700.0, toe, shoulder) > 0
+
+
+def test_morrells_net_power_at_a_worked_point():
+    """A 1 m x 1 m dry mill at 30 rpm (N_m 0.5 rev/s, 71 % of critical), J 0.30, bed 4700 kg/m3,
+    toe 231.8 deg and shoulder 47.3 deg, worked by hand through Morrell's (1996) C-model:
+    r_m 0.5 m; mean radius of the active charge 0.4050 m; t_c 1.950 s on the shell, t_f 0.3544 s
+    in flight, beta 0.8462; inner surface r_i 0.3461 m; z = 0.7^0.4532 = 0.8507; lift 4649 W plus
+    kinetic 466.1 W: 5115 W (to the four figures written)."""
+    assert morrell_net_power_w(1.0, 1.0, 30.0, 0.3, 4700.0, 231.8, 47.3) == pytest.approx(4649 + 466.1, rel=1e-3)
 
 
 def test_a_turning_drum_has_its_toe_and_shoulder_near_morrells(analytic_drum_run):
-    """The 0.3 m drum at 70 % of critical, J 0.30: the DEM's toe and shoulder within 15 deg of
-    Morrell's fit (measured 8 deg; his mill was wet and lined, ours dry and smooth), and the
-    torque-arm power within 15 % of the shaft power (measured 5 %; it leaves out the kinetic
-    energy the charge carries)."""
+    """The 0.3 m drum at 70 % of critical, J 0.30: the DEM's toe and shoulder within 10 deg of
+    Morrell's fit (measured toe 240 vs 231.9 deg, shoulder 35 vs 42.6 deg: the DEM's charge spread
+    8 deg wider at each end, his mill wet and lined, ours dry and smooth; the margin, 2 deg, is
+    less than the DEM's 5 deg bins, since the DEM's path is this machine's), and the torque-arm
+    power within 8 % of the shaft power (measured 34.09 W vs 32.39 W, 5.2 % above it: it leaves
+    out the kinetic energy the charge carries; margin 3 points)."""
     s, _ = analytic_drum_run
     assert s["charge_regime"] in ("cascading", "cataracting")
-    assert s["charge_toe_deg"] == pytest.approx(s["morrell_toe_deg"], abs=15)
-    assert s["charge_shoulder_deg"] == pytest.approx(s["morrell_shoulder_deg"], abs=15)
-    assert s["torque_arm_power_w"] == pytest.approx(s["power_w"], rel=0.15)
+    assert s["charge_toe_deg"] == pytest.approx(s["morrell_toe_deg"], abs=10)
+    assert s["charge_shoulder_deg"] == pytest.approx(s["morrell_shoulder_deg"], abs=10)
+    assert s["torque_arm_power_w"] == pytest.approx(s["power_w"], rel=0.08)

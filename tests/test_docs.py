@@ -15,6 +15,7 @@ import typing
 from pathlib import Path
 
 import pandas as pd
+import pytest
 import tomllib
 
 import ballmill
@@ -90,33 +91,56 @@ def commands(page: Path) -> list[list[str]]:
     return [shlex.split(line)[1:] for line in lines]
 
 
-def run_tutorial(name: str, folder: Path) -> None:
+def run_tutorial(name: str, folder: Path) -> list[subprocess.CompletedProcess]:
+    """Each command of the tutorial in order, as it ran (what it printed in stdout, its log in stderr)."""
+    done = []
     for args in commands(ROOT / "docs" / "tutorials" / f"{name}.md"):
         proc = subprocess.run([sys.executable, "-m", "ballmill", *args], cwd=folder, capture_output=True, text=True,
                               timeout=900, check=False)
         assert proc.returncode == 0, f"ballmill {' '.join(args)}\n{proc.stdout[-2000:]}{proc.stderr[-3000:]}"
+        done.append(proc)
+    return done
 
 
 def test_the_first_design_tutorial_runs_and_its_record_is_described(tmp_path):
-    run_tutorial("first-design", tmp_path)
+    """The run's last line is its record's power and yield (4 and 3 figures printed), and the
+    power is the tutorial's 38.11 +- 0.35 kW within two of its standard errors (the DEM's path
+    is this machine's)."""
+    printed = [proc.stdout for proc in run_tutorial("first-design", tmp_path)]
     record = json.loads((tmp_path / "outputs/runs/design/first/record.json").read_text())
     assert record["status"] == "ok" and record["ballmill_version"] == ballmill.__version__
     assert undescribed("record", record) == []
     for table in ("loads", "energy", "collisions", "trajectories"):
         assert undescribed(table, pd.read_parquet(tmp_path / record["dem_dir"] / f"{table}.parquet").columns) == []
+    line = re.search(r"^\S*outputs/runs/design/first: power ([0-9.]+) \+- ([0-9.]+) kW \(DEM\), residence time 20 min, "
+                     r"yield ([0-9.]+) %", printed[0], re.MULTILINE)
+    assert line, printed[0]
+    assert float(line[1]) == pytest.approx(record["dem_power_w"] / 1e3, rel=5e-4)
+    assert float(line[2]) == pytest.approx(record["dem_power_se_w"] / 1e3, rel=5e-2)
+    assert float(line[3]) == pytest.approx(record["yield_percent"], rel=5e-3)
+    assert record["dem_power_w"] / 1e3 == pytest.approx(38.11, abs=2 * 0.35)
+    assert printed[2].splitlines()[-1] == "outputs/report/design.md"
     assert "2 finished, 0 failed" in (tmp_path / "outputs/report/design.md").read_text()
 
 
 def test_the_first_sweep_tutorial_runs_two_jobs_and_reports_them(tmp_path):
-    run_tutorial("first-sweep", tmp_path)
+    """Run again, the sweep skips both finished jobs; the report prints where it went."""
+    first, again, report = run_tutorial("first-sweep", tmp_path)
     assert len(list((tmp_path / "outputs/sweeps/fig3b").glob("*/record.json"))) == 2
+    assert (first.stdout + first.stderr).count("skipped") == 0 and (again.stdout + again.stderr).count("skipped") == 2
+    assert report.stdout.splitlines()[-1] == "outputs/report/fig3b.md"
     assert "2 finished, 0 failed" in (tmp_path / "outputs/report/fig3b.md").read_text()
 
 
 def test_the_lab_chain_tutorial_recovers_the_filmed_pair_and_validates(tmp_path):
-    run_tutorial("lab-chain", tmp_path)
+    """Both videos filmed; the tracker's printed mean speed is its table's; the calibration prints
+    its best.json and finds the filmed pair (0.6, 0.3) exactly."""
+    printed = [proc.stdout for proc in run_tutorial("lab-chain", tmp_path)]
+    assert printed[0].splitlines()[-1] == "outputs/lab/videos: 2 videos, manifest videos.csv"
     track = pd.read_csv(tmp_path / "outputs/lab/videos/mm400_000.avi.track.csv")
     assert not track.lost.any()
+    assert f"mean speed {track.frame_speed_m_per_s.mean():.3f} m/s" in printed[1]
     best = json.loads((tmp_path / "outputs/lab/calibration/best.json").read_text())
-    assert best["wall_restitution"] == 0.6 and abs(best["wall_friction"] - 0.3) <= 0.2 + 1e-9
+    assert json.loads(printed[2][printed[2].index("{"):]) == best  # after Taichi's banner
+    assert (best["wall_restitution"], best["wall_friction"]) == (0.6, 0.3)
     assert "2 finished, 0 failed" in (tmp_path / "outputs/report/lab_validation.md").read_text()

@@ -1,6 +1,8 @@
 """A lifter drum against LIGGGHTS 3.8 (the same balls, mesh, materials and time step), torque
-within 5 % at two speeds.  Needs `liggghts` (Debian: apt-get install liggghts) and takes about
-five minutes: it runs when BALLMILL_PEER_TESTS=1."""
+within 0.5 % at two speeds (measured ratios 1.0014 and 1.0006: the tolerance is 3.5 times the
+larger miss).  It runs when BALLMILL_PEER_TESTS=1 and takes about three minutes on two cores;
+asked for without `liggghts` on the PATH (Debian: apt-get install liggghts) it fails, since a
+comparison that was requested and could not run is not a pass."""
 
 import os
 import shutil
@@ -13,8 +15,8 @@ from ballmill.drum import drum_spec, simulate_drum
 from ballmill.peer import liggghts_torque
 from ballmill.scenario import time_step_s
 
-pytestmark = pytest.mark.skipif(os.environ.get("BALLMILL_PEER_TESTS") != "1" or shutil.which("liggghts") is None,
-                                reason="LIGGGHTS comparison: set BALLMILL_PEER_TESTS=1 with liggghts installed")
+pytestmark = pytest.mark.skipif(os.environ.get("BALLMILL_PEER_TESTS") != "1",
+                                reason="LIGGGHTS comparison: set BALLMILL_PEER_TESTS=1 (needs liggghts installed)")
 MATERIALS = {"steel": MaterialConfig(shear_modulus_pa=77e7)}  # steel 100x softer, for both programs
 SIM = SimConfig(settle_s=0.5, startup_revolutions=None, window_revolutions=None, steady_after_s=0.5, duration_s=2.0,
                 sample_every_s=0.01, checkpoint_every_wall_s=None)
@@ -22,6 +24,9 @@ SIM = SimConfig(settle_s=0.5, startup_revolutions=None, window_revolutions=None,
 
 @pytest.mark.parametrize("fraction_of_critical", [0.5, 0.8])
 def test_lifter_drum_torque_matches_liggghts(fraction_of_critical, tmp_path):
+    if shutil.which("liggghts") is None:
+        pytest.fail("BALLMILL_PEER_TESTS=1 asks for the LIGGGHTS comparison, but `liggghts` is not on the PATH: "
+                    "install it (Debian: apt-get install liggghts) or unset BALLMILL_PEER_TESTS")
     drum = DrumConfig(inner_diameter_m=0.3, inner_length_m=0.1, ball_radius_m=0.006, fill_fraction=0.3,
                       fraction_of_critical=fraction_of_critical,
                       liner=LinerConfig(kind="bars", count=8, height_m=0.02, top_width_m=0.015, face_angle_deg=15))
@@ -33,4 +38,4 @@ def test_lifter_drum_torque_matches_liggghts(fraction_of_critical, tmp_path):
     theirs = theirs[theirs.t_s > SIM.settle_s + SIM.steady_after_s].torque_axis_nm.mean()
     print(f"lifter drum at {fraction_of_critical:.0%} of critical: ours {ours['torque_axis_nm']:.4g} N m, "
           f"LIGGGHTS {theirs:.4g} N m, ratio {ours['torque_axis_nm'] / theirs:.4f}")
-    assert ours["torque_axis_nm"] == pytest.approx(theirs, rel=0.05)
+    assert ours["torque_axis_nm"] == pytest.approx(theirs, rel=0.005)

@@ -119,11 +119,16 @@ def test_power_number_definition():
     assert set(OUTPUTS) == {"power_number", "collision_power_number"}
 
 
-# On the shipped training table (DEM runs): the bounds below are set from the measured errors
-# (docs/validation.md), with room for the GP's fit to move between library versions.
-# Measured: power number 0.9 % median, 1.4 % at the 90th percentile; collision power number 1.6 %, 3.1 %.
-HELD_OUT_MEDIAN, HELD_OUT_P90 = {"power_number": 0.03, "collision_power_number": 0.05}, \
-    {"power_number": 0.06, "collision_power_number": 0.1}
+# On the shipped training table (DEM runs), the errors measured (docs/validation.md) and the bounds
+# asserted, a quarter above them (room for the GP's fit to move between library versions; the
+# speed's fraction of critical read 10 % high moves the held-out power number to 1.6 % median and
+# 2.9 % p90, which bounds of three times the errors let through):
+#   held out          power number 0.89 % median, 1.39 % p90; collision power number 1.56 %, 3.08 %
+#   cross-validation  power number 1.92 %, 4.71 %;           collision power number 2.83 %, 9.44 %
+#   training fit within 2 DEM standard errors: 98.4 % (power), 100 % (collision power)
+BOUNDS = {("held out", "power_number"): (0.011, 0.0175), ("held out", "collision_power_number"): (0.0195, 0.0385),
+          ("cross-validation", "power_number"): (0.024, 0.059),
+          ("cross-validation", "collision_power_number"): (0.035, 0.118)}
 
 
 @pytest.fixture(scope="module")
@@ -145,16 +150,16 @@ def test_the_surrogate_reproduces_its_training_runs_within_their_standard_error(
     _, (_, summary) = shipped
     fit = summary[summary.set == "training fit"].set_index("output")
     print(fit.to_string())
-    assert (fit.within_2_se >= 0.9).all(), fit
+    assert (fit.within_2_se >= 0.95).all(), fit  # measured 63 and 64 of 64 runs; 61 asked
 
 
-def test_the_held_out_error_is_within_the_measured_bound(shipped):
+def test_the_held_out_and_cross_validated_errors_are_within_the_measured_bounds(shipped):
     _, (_, summary) = shipped
-    held = summary[summary.set == "held out"].set_index("output")
     print(summary.to_string())
-    for name in OUTPUTS:
-        assert held.at[name, "median_error"] < HELD_OUT_MEDIAN[name], held
-        assert held.at[name, "p90_error"] < HELD_OUT_P90[name], held
+    errors = summary.set_index(["set", "output"])
+    for key, (median, p90) in BOUNDS.items():
+        assert errors.at[key, "median_error"] < median, errors
+        assert errors.at[key, "p90_error"] < p90, errors
 
 
 def run_plan(tmp_path, overrides):
@@ -173,13 +178,21 @@ def test_a_design_by_the_surrogate_is_marked_and_carries_its_uncertainty(tmp_pat
 
 
 def test_the_cheapest_mill_is_no_dearer_than_the_papers_and_knobs_are_ranked(tmp_path):
+    """Each knob's worth is the optimum's cost rise with that knob back at the paper's value:
+    every one a rise, none above the paper's whole extra cost (13.3 %; the four together 11.9 %),
+    and ranked as measured: speed 4.8 % and fill 4.5 % first (too close to order), then L/D
+    1.9 %, then ball size 0.7 %."""
     rec = run_plan(tmp_path, ["study=cheapest_mill", "optimiser.trials=30", "optimiser.confirm=false",
                               "economics.capacity_scaling=holdup"])
     assert rec["optimum_annualised_cost_usd_per_yr"] <= rec["paper_annualised_cost_usd_per_yr"]
     assert rec["optimum_dem_inside_hull"]
-    assert all(np.isfinite(rec[f"knob_{k}_cost_increase_fraction"]) for k in
-               ("fraction_of_critical", "fill_fraction", "ball_radius_m", "length_to_diameter"))
-    assert (tmp_path / "trials.csv").is_file()
+    worth = {k: rec[f"knob_{k}_cost_increase_fraction"] for k in
+             ("fraction_of_critical", "fill_fraction", "ball_radius_m", "length_to_diameter")}
+    paper_extra = rec["paper_annualised_cost_usd_per_yr"] / rec["optimum_annualised_cost_usd_per_yr"] - 1
+    assert all(0 < w <= paper_extra for w in worth.values()), (worth, paper_extra)
+    assert min(worth["fraction_of_critical"], worth["fill_fraction"]) > worth["length_to_diameter"] \
+        > worth["ball_radius_m"], worth
+    assert len(pd.read_csv(tmp_path / "trials.csv")) == 30
 
 
 def test_a_counted_charge_has_the_fill_of_its_ball_count():

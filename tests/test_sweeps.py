@@ -18,6 +18,7 @@ import sys
 import time
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import pytest
@@ -46,16 +47,29 @@ def sweeps(tmp_path_factory):
 def test_sweep_report_matches_golden_table(sweeps, name, key, n_jobs):
     proc = ballmill("report", f"sweeps=[{sweeps / name}]", f"out={sweeps / 'report'}", cwd=sweeps)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    table = pd.read_parquet(sweeps / "report" / f"{name}.parquet")
+    report = sweeps / "report"
+    table = pd.read_parquet(report / f"{name}.parquet")
     assert len(table) == n_jobs and (table.status == "ok").all()
-    for ext in ("png", "svg", "csv", "md", "provenance.json"):
-        assert (sweeps / "report" / f"{name}.{ext}").stat().st_size > 0
-    assert "census.gov" in (sweeps / "report" / f"{name}.provenance.json").read_text()
-    spectra = pd.read_parquet(sweeps / "report" / f"{name}_impact_spectra.parquet")
-    assert spectra.case.nunique() == n_jobs and (spectra["count"] >= 0).all()
-    assert (sweeps / "report" / f"{name}_impact_spectra.png").stat().st_size > 0
-    markdown = (sweeps / "report" / f"{name}.md").read_text()
+    numbers = table.select_dtypes("number").columns  # the CSV copy holds the same table
+    pd.testing.assert_frame_equal(pd.read_csv(report / f"{name}.csv")[numbers], table[numbers], check_dtype=False)
+    assert "census.gov" in (report / f"{name}.provenance.json").read_text()
+    # the spectra count every collision of each job's log that started in its averaging window
+    spectra = pd.read_parquet(report / f"{name}_impact_spectra.parquet")
+    labels = table[key].map(lambda v: f"BPR {v:g}" if key == "bpr" else v)
+    for label, job in zip(labels, table.itertuples()):
+        log = pd.read_parquet(Path(job.dem_dir) / "collisions.parquet")
+        window = log[log.t_start_s > job.dem_averaging_from_s]
+        kinds = np.where(window.kind == "ball-wall", "ball_wall_" + window.body.astype(str), "ball_ball")
+        counted = spectra[spectra.case == label].groupby("pair_type")["count"].sum()
+        assert counted.to_dict() == pd.Series(kinds).value_counts().to_dict(), label
+    for figure in (name, f"{name}_impact_spectra"):
+        pixels = plt.imread(report / f"{figure}.png")
+        assert min(pixels.shape[:2]) > 300 and pixels[..., :3].std() > 0.05, figure  # drawn, not blank
+    legend = (report / f"{name}_impact_spectra.svg").read_text()
+    assert all(f"<!-- {label} -->" in legend for label in labels)  # a curve per job
+    markdown = (report / f"{name}.md").read_text()
     assert "## Impacts" in markdown
+    assert all(re.search(rf"^\| {re.escape(str(label))} +\|", markdown, re.MULTILINE) for label in labels)
     # the test preset's window is the start-up: every job is flagged, in its row and in a line
     assert not table.dem_steady.any() and markdown.count("- UNSTEADY `") == n_jobs
     omega = table.dem_speed_rpm * 2 * np.pi / 60  # the torque opposes the turning drum

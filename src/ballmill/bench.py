@@ -109,13 +109,12 @@ def bench(case: str, arch: str, threads: int, settle_s: float, rotate_s: float, 
     for r in range(rounds):
         rates = {"particle_steps_per_s_1_thread": bench_run(spec, sim, 1)[1]} if scaling else {}
         rates["core_balance"] = core_balance()
-        rss0 = resident_bytes()
         engine, rates["particle_steps_per_s"], res, steps_per_rebuild, rates["one_thread_share"] = \
             bench_run(spec, sim, threads)
         if r == 0:  # what the engine did, from the first round
             first = {"launch": engine.launch, "dt_s": engine.dt, "steps_per_rebuild": steps_per_rebuild,
                      "contacts_per_particle": engine.contacts_per_particle(),
-                     "engine_bytes_per_particle": (resident_bytes() - rss0) / spec.n_particles}
+                     "engine_bytes_per_particle": engine.field_bytes() / spec.n_particles}
             phases = engine.profile(profile_steps)
             power, se = res.mean_power_w("drum", after_s=settle_s + 0.3 * rotate_s)
             peer_args = (spec, drum, material, PAIRS["steel-steel"], engine.dt, settle_s, rotate_s, engine.nl.skin)
@@ -197,12 +196,6 @@ def machine() -> dict:
             scale = {"K": 1024, "M": 1024**2}.get(size[-1], 1)
             caches[f"L{(index / 'level').read_text().strip()}_bytes"] = int(size.rstrip("KM")) * scale
     return {"cpu": model, "cores": len(os.sched_getaffinity(0)), **caches}
-
-
-def resident_bytes() -> float:
-    """Memory the process holds now (resident set, bytes)."""
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * resource.getpagesize()
 
 
 def _cell(value) -> str:

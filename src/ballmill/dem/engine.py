@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import taichi as ti
+from taichi.lang.field import Field
 from tqdm import tqdm
 
 from .checkpoint import Checkpoint, SettledBed
@@ -44,7 +45,7 @@ from .particles import Particles, capacity
 from .results import Recorder, Results
 from .system import SystemSpec
 from .team import SPACING, Pacer, Team, block_lead
-from .transfer import FieldSet
+from .transfer import FieldSet, nbytes
 from .walls import LOAD_COLUMNS, Walls, mean_loads
 
 log = logging.getLogger(__name__)
@@ -478,6 +479,13 @@ class Engine:
         counts = open_.sum(axis=1)
         np.add.at(counts, self.nl.nb_j.to_numpy()[:self.n][open_], 1)
         return counts + self.walls.c_n.to_numpy()[self.step_index % 2, :self.n]
+
+    def field_bytes(self) -> int:
+        """Bytes the fields of the engine's parts hold, from their shapes and types (a field
+        that two parts share counted once)."""
+        fields = {id(f): f for part in vars(self).values() if type(part).__module__.startswith(__package__)
+                  for f in vars(part).values() if isinstance(f, Field)}
+        return sum(nbytes(f) for f in fields.values())
 
     def contacts_per_particle(self) -> float:
         return float(self.contact_counts().mean())

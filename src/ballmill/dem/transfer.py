@@ -22,6 +22,13 @@ def element_shape(field) -> tuple[int, ...]:
     return (field.n,) if field.ndim == 1 else (field.n, field.m)
 
 
+def nbytes(field) -> int:
+    """Bytes of a field's values as declared: its elements times their components times the size
+    of its type (a record's padding, if any, not counted)."""
+    values = int(np.prod(field.shape, dtype=int)) * int(np.prod(element_shape(field), dtype=int))
+    return values * np.dtype(to_numpy_type(field.dtype)).itemsize
+
+
 @ti.func
 def flat_index(index: ti.template(), shape: ti.template()):
     """Row-major position of `index` in an array of `shape`."""
