@@ -180,11 +180,27 @@ COMMANDS = {
 }
 
 
-def describe(schema, prefix: str = "") -> list[str]:
-    """One line per field: name = default, allowed range or choices, and its note."""
+def as_run(name: str) -> DictConfig:
+    """The command's config as it runs with no override: each group at its default preset."""
+    from .scenario import compose
+
+    return compose("config" if name == "run" else name, [])
+
+
+def value_in(cfg: DictConfig, path: str, default):
+    """A field's value in a composed config as plain data (the schema's default for a list's items)."""
+    value = OmegaConf.select(cfg, path.split("[]")[0], default=default, throw_on_missing=False)
+    if "[]" in path or (value is None and default == "???"):
+        return default
+    return OmegaConf.to_container(value) if OmegaConf.is_config(value) else value
+
+
+def describe(schema, prefix: str, cfg: DictConfig) -> list[str]:
+    """One line per field: name = its value as the command runs, allowed range or choices, and its note."""
     lines = []
     for path, f, default in walk(schema, prefix):
-        shown = "(required)" if default == "???" else json.dumps(default)
+        value = value_in(cfg, path, default)
+        shown = "(required)" if value == "???" else json.dumps(value)
         lines.append(f"  {path} = {shown}  {allowed(f.metadata)}  {f.metadata.get('doc', '')}".rstrip())
     return lines
 
@@ -197,12 +213,14 @@ def usage() -> str:
 
 def help_text(name: str) -> str:
     command = COMMANDS[name]
-    lines = [f"usage: ballmill {name} [key=value ...]: {command.summary}", ""]
+    cfg = as_run(name)
+    lines = [f"usage: ballmill {name} [key=value ...]: {command.summary}", "",
+             "Each field = its value as the command runs with no override (each group at its default preset)."]
     if name in SCHEMAS:
-        lines += [f"{SCHEMAS[name].__doc__.strip()}", "", "Options:", *describe(SCHEMAS[name]), ""]
+        lines += [f"{SCHEMAS[name].__doc__.strip()}", "", "Options:", *describe(SCHEMAS[name], "", cfg), ""]
     for group, schema in command.groups:
         lines += [f"{group}.*: {schema.__doc__.strip().splitlines()[0]}",
-                  *describe(schema, f"{group}."), ""]
+                  *describe(schema, f"{group}.", cfg), ""]
     if command.groups:
         lines += ["materials.NAME.* and interactions.A-B.* as in conf/material/ and conf/interactions/.", ""]
     if name == "run":
