@@ -99,13 +99,16 @@ def calibrate_cmd(cfg: DictConfig) -> None:
 
 
 def report_cmd(cfg: DictConfig) -> None:
-    from .report import report
+    from .report import finished, headline, index, report
 
     opts = options(cfg, "report")
     if not opts.sweeps:
         raise ConfigError("sweeps=[] is empty: give sweeps=[outputs/sweeps/NAME,...]")
-    for d in opts.sweeps:
-        print(report(Path(d), Path(opts.out)))
+    out = Path(opts.out)
+    names = [report(Path(d), out).stem for d in opts.sweeps]
+    for name in names:  # the answer last, where the console ends
+        print("\n".join([f"{out / name}.md", *headline(finished(out, name))[2:]]))
+    print(f"Every table and figure: {index(out)}")
 
 
 def bench_cmd(cfg: DictConfig) -> None:
@@ -321,7 +324,8 @@ def main(argv: list[str] | None = None) -> None:
     if any(a in ("-h", "--help") for a in args):
         print(help_text(name))
         return
-    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")  # libraries: warnings
+    log.setLevel(logging.INFO)
     try:
         if name == "run":
             run_command(args)

@@ -15,7 +15,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
-
 import yaml
 from omegaconf import DictConfig, OmegaConf
 
