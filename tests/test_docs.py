@@ -22,8 +22,10 @@ import tomllib
 
 import ballmill
 from ballmill import config
+from ballmill.cli import compose_command, options, scenario_of
 from ballmill.columns import undescribed
 from ballmill.config import walk
+from ballmill.jobs import check_jobs
 from ballmill.reference import HEADER, PAGES, config_groups, unit
 from ballmill.scenario import compose
 
@@ -129,6 +131,39 @@ def test_a_figure_that_is_a_config_value_matches_the_config():
             for part in c["key"].split("."):
                 value = value[part]
             assert str(entry["value"]) == shown[c["as"]](value), f"{name}: {c['preset']} {c['key']} = {value}"
+
+
+def prose_spans(page: Path) -> list[str]:
+    """The page's inline code outside its code blocks (the blocks' commands: test_commands)."""
+    text = re.sub(r"^```.*?^```", "", page.read_text(), flags=re.MULTILINE | re.DOTALL)
+    return re.findall(r"`([^`\n]+)`", text)
+
+
+SHOWN_REFUSED = {"ballmill run scaleup.bpr=-1"}  # the pages show these as what ballmill refuses
+
+
+def test_every_command_and_preset_named_in_the_prose_is_accepted_as_written():
+    groups = {p.name for p in (ROOT / "src/ballmill/conf").iterdir() if p.is_dir()}
+    spans = {s for page in READ for s in prose_spans(page)}
+    # placeholders (NAME, ...), Hydra's flags and a user's own folders aside
+    commands = {s for s in spans if s.startswith("ballmill ") and not re.search(r"[A-Z]{3}|\.\.\.|--|/home/", s)}
+    presets = {s for s in spans if re.fullmatch(r"[a-z_]+=[a-z0-9_]+", s) and s.split("=")[0] in groups}
+    assert len(commands) > 20 and len(presets) > 10
+    refused = []
+    for line in sorted(commands | presets):
+        args = shlex.split(line)[1:] if line.startswith("ballmill ") else ["run", line]
+        try:
+            if args[0] == "run" and "-m" in args:
+                check_jobs([a for a in args[1:] if a != "-m"], multirun=True)
+            elif args[0] == "run":
+                scenario_of(compose("config", args[1:]))
+            elif len(args) == 1:  # the command named, its required options not
+                compose_command(args[0], [])
+            else:
+                options(compose_command(args[0], args[1:]), args[0])
+        except config.ConfigError:
+            refused.append(line)
+    assert sorted(refused) == sorted(SHOWN_REFUSED)
 
 
 def test_the_version_is_written_once_and_printed():
