@@ -388,7 +388,7 @@ class RtdConfig:
 
 @dataclass
 class YieldModelConfig:
-    """TPA yield of the mill: the seed's BPR line, yield from the collision dose per kg of PET
+    """TPA yield of the mill: the paper's BPR line, yield from the collision dose per kg of PET
     calibrated on the lab DEM, or a model fitted to kinetics experiments
     (docs/explanation/yield.md)."""
 

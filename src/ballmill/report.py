@@ -187,8 +187,8 @@ RULE_COLUMNS = ["rule", "bpr", "residence_time_min", "residence_time_se_min", "f
 
 
 def scaleup_rule_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
-    """Each yield rule's mill per BPR; at BPR 19 against the seed's, and the mechanics behind the
-    difference: the lab's and the seed mill's dose rates and dissipation spectra side by side."""
+    """Each yield rule's mill per BPR; at BPR 19 against the paper's, and the mechanics behind the
+    difference: the lab's and the paper's mill's dose rates and dissipation spectra side by side."""
     ok = with_rule_labels(ok)
     table = ok[[c for c in RULE_COLUMNS if c in ok]].sort_values(["rule", "bpr"])
     write_table(table, out_dir / f"{name}_designs")
@@ -198,8 +198,8 @@ def scaleup_rule_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: 
         return lines
     seed = at19.loc["bpr_line"]
     head = ("| rule | residence time (min) | D x L (m) | balls | power (kW) | electricity ($/t PET) | purchase cost ($) "
-            "| x seed's residence time | x seed's power |")
-    lines += ["### BPR 19 against the seed's design", "", head, "|---|---|---|---|---|---|---|---|---|"]
+            "| x paper's residence time | x paper's power |")
+    lines += ["### BPR 19 against the paper's design", "", head, "|---|---|---|---|---|---|---|---|---|"]
     for rule, r in at19.iterrows():
         lines.append(f"| {rule} | {r.residence_time_min:.4g} | {r.diameter_m:.2f} x {r.length_m:.2f} | "
                      f"{r.ball_count:.0f} | {r.dem_power_w / 1e3:.4g} | {r.electricity_usd_per_t_pet:.3g} | "
@@ -210,7 +210,7 @@ def scaleup_rule_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: 
 
 
 def mechanics_lines(name: str, ok: pd.DataFrame, seed: pd.Series, out_dir: Path) -> list[str]:
-    """The lab's nominal condition beside the seed's mill at BPR 19: dose rates per kg of balls and
+    """The lab's nominal condition beside the paper's mill at BPR 19: dose rates per kg of balls and
     of PET, and where the dissipation falls on the impact-energy axis."""
     energy = ok[ok.calibration_dir.notna()] if "calibration_dir" in ok else ok.iloc[:0]
     if energy.empty:
