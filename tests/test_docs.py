@@ -12,6 +12,7 @@ import json
 import os
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 import typing
@@ -164,6 +165,23 @@ def test_every_command_and_preset_named_in_the_prose_is_accepted_as_written():
         except config.ConfigError:
             refused.append(line)
     assert sorted(refused) == sorted(SHOWN_REFUSED)
+
+
+def test_the_own_data_pages_edits_of_a_table_change_exactly_the_row_they_name(tmp_path):
+    """The page's `sed` lines, run on copies of the tables: each changes one row (a price or a
+    factor that moved in the table would leave the copy unchanged, silently)."""
+    lines = [line for block in re.findall(r"^```\n(.*?)^```", (ROOT / "docs/how-to/own-data.md").read_text(),
+                                          re.MULTILINE | re.DOTALL) for line in block.splitlines() if line.startswith("sed ")]
+    (tmp_path / "data").mkdir()
+    tables = {"prices.csv": tmp_path / "prices_2025.csv", "ghg_factors.csv": tmp_path / "data/ghg_factors.csv"}
+    for name in tables:
+        shutil.copy(ROOT / "src/ballmill/data" / name, tmp_path / "data" / name)
+    for line in lines:
+        subprocess.run(["bash", "-c", line.replace("/home/me/", f"{tmp_path}/")], cwd=tmp_path, check=True)
+    for name, written in tables.items():
+        before, after = (pd.read_csv(p, dtype=str, keep_default_na=False) for p in (ROOT / "src/ballmill/data" / name,
+                                                                                      written))
+        assert (before != after).any(axis=1).sum() == 1, name
 
 
 def test_the_version_is_written_once_and_printed():
