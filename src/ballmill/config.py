@@ -34,6 +34,8 @@ class ConfigError(ValueError):
 
 @dataclass
 class MaterialConfig:
+    """A material of balls, jars or walls (materials.NAME): its density and elastic constants."""
+
     density_kg_per_m3: float = rng(7900.0, 0.0, None, lo_open=True, doc="mass density")
     shear_modulus_pa: float = rng(77e9, 0.0, None, lo_open=True, doc="shear modulus G (Young's E = 2 G (1 + v))")
     poisson_ratio: float = rng(0.3, 0.0, 0.5, hi_open=True, doc="Poisson's ratio v")
@@ -42,6 +44,8 @@ class MaterialConfig:
 
 @dataclass
 class InteractionConfig:
+    """The contact of two materials (interactions.A-B): restitution and friction."""
+
     restitution: float = rng(0.5, 0.0, 1.0, lo_open=True, doc="normal coefficient of restitution of the pair")
     static_friction: float = rng(0.5, 0.0, None,
                                  doc="sliding (Coulomb) friction coefficient: tangential force capped at mu F_n")
