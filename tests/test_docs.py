@@ -1,14 +1,18 @@
 """The documentation: the site builds with no broken link or reference, its reference covers
-every config field with a doc, the version is written once, and the tutorials' commands run as
-written (at the tiny sizes they use), so a tutorial cannot rot."""
+every config field with a doc and is the code's, every figure quoted on more than one page is
+written once (docs/numbers.yaml) and no page quotes one an earlier run gave, the version is
+written once, and the tutorials' commands run as written (at the tiny sizes they use), so a
+tutorial cannot rot."""
 
 import dataclasses
 import importlib.metadata
+import importlib.util
 import inspect
 import json
 import os
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 import typing
@@ -20,12 +24,17 @@ import tomllib
 
 import ballmill
 from ballmill import config
+from ballmill.cli import compose_command, options, scenario_of
 from ballmill.columns import undescribed
 from ballmill.config import walk
-from ballmill.reference import PAGES, config_groups, unit
+from ballmill.jobs import check_jobs
+from ballmill.reference import HEADER, PAGES, config_groups, unit
+from ballmill.scenario import compose
 
 ROOT = Path(__file__).resolve().parents[1]
 QUIET = {"NO_MKDOCS_2_WARNING": "1", "DISABLE_MKDOCS_2_WARNING": "true"}  # the tools' banners
+# the pages a reader reads (history keeps earlier runs' figures: that is its job)
+READ = [ROOT / "README.md", *(p for p in sorted((ROOT / "docs").rglob("*.md")) if p.name != "history.md")]
 
 
 def schemas() -> list[tuple[str, type]]:
@@ -73,6 +82,120 @@ def test_the_site_builds_strictly_with_the_generated_reference(tmp_path):
     assert "dem_specific_dissipated_power_w_per_kg" in page["columns"]
     assert all(f"data/{p.name}" in page["data"] for p in (ROOT / "src/ballmill/data").glob("*.csv"))
     assert all(f'id="{name}"' in page["commands"] for name in ("run", "report", "bench", "calibrate"))
+
+
+def test_the_committed_reference_pages_are_what_the_code_generates():
+    stale = [name for name, page in PAGES.items()
+             if (ROOT / "docs" / "reference" / f"{name}.md").read_text() != HEADER + page()]
+    assert not stale, f"stale reference pages {stale}: run `python -m ballmill.reference docs/reference`"
+
+
+def test_the_reference_shows_the_default_presets_values_and_the_others_beside_them():
+    page = (ROOT / "docs/reference/config.md").read_text()
+    header = "| field | unit | default (`steady`) | `lab` | `paper` | `surrogate` | `test` | allowed | meaning |"
+    assert header in page
+    # the schema's 0.2, sim=steady's 0.4; paper as steady (blank), the others 0.2
+    assert "| `sim.dt_fraction` |  | `0.4` | `0.2` |  | `0.2` | `0.2` |" in page
+
+
+def hooks():
+    spec = importlib.util.spec_from_file_location("hooks", ROOT / "docs" / "hooks.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_quoted_figure_a_page_names_is_in_numbers_yaml_with_its_source():
+    docs = hooks()
+    numbers = docs.numbers()
+    for page in READ:
+        docs.fill(page.read_text(), numbers, page.name)  # raises on a name not there
+    named = {name for page in READ for name in docs.PLACEHOLDER.findall(page.read_text())}
+    readme = (ROOT / "README.md").read_text()
+    for name, entry in numbers.items():
+        assert {"value", "what", "source"} <= entry.keys(), name
+        assert name in named or str(entry["value"]) in readme, f"{name} is quoted by no page"
+
+
+def test_no_page_quotes_a_figure_an_earlier_run_gave():
+    texts = {p.relative_to(ROOT): p.read_text() for p in [*READ, *sorted((ROOT / "src/ballmill/conf").rglob("*.yaml"))]}
+    old = [(name, quote, str(path)) for name, entry in hooks().numbers().items()
+           for quote in entry.get("superseded", []) for path, text in texts.items() if quote in text]
+    assert not old, f"(entry, the earlier figure, where): {old}; quote the entry instead"
+
+
+def test_a_figure_that_is_a_config_value_matches_the_config():
+    shown = {"times_softer": lambda x: f"{1 / x:g}x", "percent": lambda x: f"{100 * x:g} %"}
+    for name, entry in hooks().numbers().items():
+        if "config" in entry:
+            c = entry["config"]
+            value = compose("config", [c["preset"]])
+            for part in c["key"].split("."):
+                value = value[part]
+            assert str(entry["value"]) == shown[c["as"]](value), f"{name}: {c['preset']} {c['key']} = {value}"
+
+
+def prose_spans(page: Path) -> list[str]:
+    """The page's inline code outside its code blocks (the blocks' commands: test_commands)."""
+    text = re.sub(r"^```.*?^```", "", page.read_text(), flags=re.MULTILINE | re.DOTALL)
+    return re.findall(r"`([^`\n]+)`", text)
+
+
+def accepted(args: list[str]) -> bool:
+    """Whether `ballmill ARGS` passes what ballmill checks before running anything: composed, every
+    value in range, a sweep's jobs planned (a command named alone: composed, its required options not)."""
+    try:
+        if args[0] == "run" and "-m" in args:
+            check_jobs([a for a in args[1:] if a != "-m"], multirun=True)
+        elif args[0] == "run":
+            scenario_of(compose("config", args[1:]))
+        elif len(args) == 1:
+            compose_command(args[0], [])
+        else:
+            options(compose_command(args[0], args[1:]), args[0])
+    except config.ConfigError:
+        return False
+    return True
+
+
+SHOWN_REFUSED = {"ballmill run scaleup.bpr=-1"}  # the pages show these as what ballmill refuses
+
+
+def test_every_command_and_preset_named_in_the_prose_is_accepted_as_written():
+    groups = {p.name for p in (ROOT / "src/ballmill/conf").iterdir() if p.is_dir()}
+    spans = {s for page in READ for s in prose_spans(page)}
+    # placeholders (NAME, ...), Hydra's flags and a user's own folders aside
+    commands = {s for s in spans if s.startswith("ballmill ") and not re.search(r"[A-Z]{3}|\.\.\.|--|/home/", s)}
+    presets = {s for s in spans if re.fullmatch(r"[a-z_]+=[a-z0-9_]+", s) and s.split("=")[0] in groups}
+    assert len(commands) > 20 and len(presets) > 10
+    refused = [line for line in sorted(commands | presets)
+               if not accepted(shlex.split(line)[1:] if line.startswith("ballmill ") else ["run", line])]
+    assert sorted(refused) == sorted(SHOWN_REFUSED)
+
+
+def test_every_command_of_the_cookbook_is_accepted_as_written():
+    page = (ROOT / "docs/cookbook.md").read_text()
+    lines = [line for block in re.findall(r"^```\n(.*?)^```", page, re.MULTILINE | re.DOTALL)
+             for line in block.splitlines()]
+    assert len(lines) >= 15 and all(line.startswith("ballmill ") for line in lines)
+    assert [line for line in lines if not accepted(shlex.split(line)[1:])] == []
+
+
+def test_the_own_data_pages_edits_of_a_table_change_exactly_the_row_they_name(tmp_path):
+    """The page's `sed` lines, run on copies of the tables: each changes one row (a price or a
+    factor that moved in the table would leave the copy unchanged, silently)."""
+    lines = [line for block in re.findall(r"^```\n(.*?)^```", (ROOT / "docs/how-to/own-data.md").read_text(),
+                                          re.MULTILINE | re.DOTALL) for line in block.splitlines() if line.startswith("sed ")]
+    (tmp_path / "data").mkdir()
+    tables = {"prices.csv": tmp_path / "prices_2025.csv", "ghg_factors.csv": tmp_path / "data/ghg_factors.csv"}
+    for name in tables:
+        shutil.copy(ROOT / "src/ballmill/data" / name, tmp_path / "data" / name)
+    for line in lines:
+        subprocess.run(["bash", "-c", line.replace("/home/me/", f"{tmp_path}/")], cwd=tmp_path, check=True)
+    for name, written in tables.items():
+        before, after = (pd.read_csv(p, dtype=str, keep_default_na=False) for p in (ROOT / "src/ballmill/data" / name,
+                                                                                      written))
+        assert (before != after).any(axis=1).sum() == 1, name
 
 
 def test_the_version_is_written_once_and_printed():

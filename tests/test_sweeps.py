@@ -23,6 +23,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from ballmill.report import headline
+
 GOLDEN = Path(__file__).parent / "golden"
 EXACT = ["pet_feed_kg_per_h", "naoh_feed_kg_per_h", "diameter_m", "length_m", "ball_count", "purchase_cost_usd",
          "purchase_cost_usd_per_kg_per_h", "yield_percent", "margin_usd_per_t_tpa"]
@@ -86,6 +88,28 @@ def test_sweep_report_matches_golden_table(sweeps, name, key, n_jobs):
     golden = pd.read_csv(golden_path, keep_default_na=False).sort_values(key).reset_index(drop=True)
     assert ours[key].astype(str).tolist() == golden[key].astype(str).tolist()
     pd.testing.assert_frame_equal(ours[EXACT], golden[EXACT], rtol=1e-9, check_dtype=False)
+
+
+def test_the_report_ends_with_its_headline_and_an_index_of_every_table_and_figure(sweeps):
+    out = sweeps / "both"
+    proc = ballmill("report", f"sweeps=[{sweeps / 'fig3b'},{sweeps / 'fig4'}]", f"out={out}", cwd=sweeps)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert proc.stdout.splitlines()[-1] == f"Every table and figure: {out / 'index.md'}"
+    # the headline: each mill's power, electricity and purchase cost, Figure 3b's cases then Figure 4's
+    assert re.search(r"^\| BPR 19 +\| [0-9.]+ \+- [0-9.]+ +\| +[0-9.]+ \| +119,904 \|$", proc.stdout, re.MULTILINE)
+    assert proc.stdout.index("| BPR 22.9 ") < proc.stdout.index("| FL ")
+    assert not proc.stderr.strip()  # no library's log lines on the console
+    index = (out / "index.md").read_text()
+    linked = set(re.findall(r"\]\(([^)]+)\)", index))
+    assert linked == {p.name for p in out.iterdir() if p.name != "index.md"}
+
+
+def test_a_plants_headline_gives_its_msp_and_footprint_with_their_bands():
+    ok = pd.DataFrame({"region": ["DC"], "bpr": [20.0], "job_dir": ["x"], "msp_usd_per_kg": [1.5712],
+                       "msp_p5_usd_per_kg": [1.5], "msp_p95_usd_per_kg": [1.7], "gwp_total_kg_per_kg": [2.774],
+                       "gwp_p5_kg_per_kg": [2.51], "gwp_p95_kg_per_kg": [3.1]})
+    table = "\n".join(headline(ok))
+    assert re.search(r"\| DC +\| 1\.571 \(1\.500-1\.700\) +\| 2\.77 \(2\.51-3\.10\) +\|", table)
 
 
 def test_each_job_logs_how_much_of_its_sweep_is_done(sweeps):

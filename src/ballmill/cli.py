@@ -99,13 +99,16 @@ def calibrate_cmd(cfg: DictConfig) -> None:
 
 
 def report_cmd(cfg: DictConfig) -> None:
-    from .report import report
+    from .report import finished, headline, index, report
 
     opts = options(cfg, "report")
     if not opts.sweeps:
         raise ConfigError("sweeps=[] is empty: give sweeps=[outputs/sweeps/NAME,...]")
-    for d in opts.sweeps:
-        print(report(Path(d), Path(opts.out)))
+    out = Path(opts.out)
+    names = [report(Path(d), out).stem for d in opts.sweeps]
+    for name in names:  # the answer last, where the console ends
+        print("\n".join([f"{out / name}.md", *headline(finished(out, name))[2:]]))
+    print(f"Every table and figure: {index(out)}")
 
 
 def bench_cmd(cfg: DictConfig) -> None:
@@ -180,11 +183,27 @@ COMMANDS = {
 }
 
 
-def describe(schema, prefix: str = "") -> list[str]:
-    """One line per field: name = default, allowed range or choices, and its note."""
+def as_run(name: str) -> DictConfig:
+    """The command's config as it runs with no override: each group at its default preset."""
+    from .scenario import compose
+
+    return compose("config" if name == "run" else name, [])
+
+
+def value_in(cfg: DictConfig, path: str, default):
+    """A field's value in a composed config as plain data (the schema's default for a list's items)."""
+    value = OmegaConf.select(cfg, path.split("[]")[0], default=default, throw_on_missing=False)
+    if "[]" in path or (value is None and default == "???"):
+        return default
+    return OmegaConf.to_container(value) if OmegaConf.is_config(value) else value
+
+
+def describe(schema, prefix: str, cfg: DictConfig) -> list[str]:
+    """One line per field: name = its value as the command runs, allowed range or choices, and its note."""
     lines = []
     for path, f, default in walk(schema, prefix):
-        shown = "(required)" if default == "???" else json.dumps(default)
+        value = value_in(cfg, path, default)
+        shown = "(required)" if value == "???" else json.dumps(value)
         lines.append(f"  {path} = {shown}  {allowed(f.metadata)}  {f.metadata.get('doc', '')}".rstrip())
     return lines
 
@@ -197,12 +216,14 @@ def usage() -> str:
 
 def help_text(name: str) -> str:
     command = COMMANDS[name]
-    lines = [f"usage: ballmill {name} [key=value ...]: {command.summary}", ""]
+    cfg = as_run(name)
+    lines = [f"usage: ballmill {name} [key=value ...]: {command.summary}", "",
+             "Each field = its value as the command runs with no override (each group at its default preset)."]
     if name in SCHEMAS:
-        lines += [f"{SCHEMAS[name].__doc__.strip()}", "", "Options:", *describe(SCHEMAS[name]), ""]
+        lines += [f"{SCHEMAS[name].__doc__.strip()}", "", "Options:", *describe(SCHEMAS[name], "", cfg), ""]
     for group, schema in command.groups:
         lines += [f"{group}.*: {schema.__doc__.strip().splitlines()[0]}",
-                  *describe(schema, f"{group}."), ""]
+                  *describe(schema, f"{group}.", cfg), ""]
     if command.groups:
         lines += ["materials.NAME.* and interactions.A-B.* as in conf/material/ and conf/interactions/.", ""]
     if name == "run":
@@ -303,7 +324,8 @@ def main(argv: list[str] | None = None) -> None:
     if any(a in ("-h", "--help") for a in args):
         print(help_text(name))
         return
-    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")  # libraries: warnings
+    log.setLevel(logging.INFO)
     try:
         if name == "run":
             run_command(args)

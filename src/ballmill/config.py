@@ -35,6 +35,8 @@ class ConfigError(ValueError):
 
 @dataclass
 class MaterialConfig:
+    """A material of balls, jars or walls (materials.NAME): its density and elastic constants."""
+
     density_kg_per_m3: float = rng(7900.0, 0.0, None, lo_open=True, doc="mass density")
     shear_modulus_pa: float = rng(77e9, 0.0, None, lo_open=True, doc="shear modulus G (Young's E = 2 G (1 + v))")
     poisson_ratio: float = rng(0.3, 0.0, 0.5, hi_open=True, doc="Poisson's ratio v")
@@ -43,6 +45,8 @@ class MaterialConfig:
 
 @dataclass
 class InteractionConfig:
+    """The contact of two materials (interactions.A-B): restitution and friction."""
+
     restitution: float = rng(0.5, 0.0, 1.0, lo_open=True, doc="normal coefficient of restitution of the pair")
     static_friction: float = rng(0.5, 0.0, None,
                                  doc="sliding (Coulomb) friction coefficient: tangential force capped at mu F_n")
@@ -396,7 +400,7 @@ def yield_rule_names() -> tuple[str, ...]:
 
 @dataclass
 class YieldModelConfig:
-    """TPA yield of the mill: the seed's BPR line, yield from the collision dose per kg of PET
+    """TPA yield of the mill: the paper's BPR line, yield from the collision dose per kg of PET
     calibrated on the lab DEM, or a model fitted to kinetics experiments
     (docs/explanation/yield.md)."""
 

@@ -1,9 +1,10 @@
-"""The documentation site's reference pages, generated from the code at build time.
+"""The documentation site's reference pages, generated from the code.
 
 Commands and their options (cli.COMMANDS, the schemas of config.py), every config group and
 field with its unit, default, allowed values and doc, the columns of every output table
 (columns.TABLES) and every data table with its sources (data/*.csv and data/README.md).
-docs/gen_reference.py writes PAGES into the site; nothing generated is kept in git.
+`python -m ballmill.reference docs/reference` writes PAGES; they are committed, so that they read on
+the repository host too, and the documentation's tests fail when one no longer matches the code.
 """
 
 from __future__ import annotations
@@ -14,8 +15,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
+import yaml
+from omegaconf import DictConfig, OmegaConf
 
-from .cli import COMMANDS, RUN_GROUPS
+from .cli import COMMANDS, RUN_GROUPS, as_run, value_in
 from .columns import RECORD, TABLES
 from .config import COMMANDS as SCHEMAS
 from .config import CONF_DIR, InteractionConfig, MaterialConfig, allowed, walk
@@ -29,6 +32,8 @@ UNITS = {"m": "m", "mm": "mm", "m2": "m²", "m3": "m³", "ml": "mL", "s": "s", "
 OF = {"pet": "PET", "tpa": "TPA", "eg": "EG", "na2tpa": "Na2TPA", "balls": "balls", "water": "water"}
 # whole-table rows shown up to this many cells; larger tables show their columns and sources
 MAX_CELLS = 800
+# a group's presets get a column each beside the default up to this many (study's eight: a list)
+MAX_SIDE_BY_SIDE = 6
 
 
 def unit(name: str) -> str:
@@ -78,10 +83,18 @@ def shown(default) -> str:
     return "required" if default == "???" else f"`{json.dumps(default)}`"
 
 
-def field_table(schema: type, prefix: str) -> str:
-    rows = [[f"`{path}`", unit(f.name), shown(default), allowed(f.metadata), f.metadata.get("doc", "")]
-            for path, f, default in walk(schema, prefix)]
-    return table(["field", "unit", "default", "allowed", "meaning"], rows)
+def field_table(schema: type, prefix: str, cfg: DictConfig, presets: dict[str, DictConfig] | None = None,
+                default_header: str = "default") -> str:
+    """Each field with its value as the command runs (cfg), and beside it each other preset's value
+    where it differs (presets: name -> the config composed with that preset)."""
+    presets = presets or {}
+    rows = []
+    for path, f, default in walk(schema, prefix):
+        value = value_in(cfg, path, default)
+        others = [value_in(c, path, default) for c in presets.values()]
+        rows.append([f"`{path}`", unit(f.name), shown(value), *(shown(o) if o != value else "" for o in others),
+                     allowed(f.metadata), f.metadata.get("doc", "")])
+    return table(["field", "unit", default_header, *(f"`{n}`" for n in presets), "allowed", "meaning"], rows)
 
 
 def summary_of(schema: type) -> str:
@@ -118,7 +131,8 @@ def commands_page() -> str:
         what = summary_of(SCHEMAS[name]) if name in SCHEMAS else f"`ballmill {name}`: {command.summary}."
         out += [f"## {name}", "", f"`ballmill {name} [key=value ...]`", "", what, ""]
         if name in SCHEMAS:
-            out += [field_table(SCHEMAS[name], "")]
+            out += ["`default`: its value as the command runs with no override.", "",
+                    field_table(SCHEMAS[name], "", as_run(name))]
         if command.groups:
             links = ", ".join(f"[`{g}.*`](config.md#{g})" for g, _ in command.groups)
             out += [f"Config groups it reads: {links}, and `materials.*`, `interactions.*`.", ""]
@@ -131,21 +145,43 @@ def commands_page() -> str:
     return "\n".join(out)
 
 
+def run_defaults() -> dict[str, str]:
+    """The preset `ballmill run` takes for each group (conf/config.yaml's defaults list)."""
+    entries = yaml.safe_load((CONF_DIR / "config.yaml").read_text())["defaults"]
+    return {k: v for e in entries if isinstance(e, dict) for k, v in e.items()}
+
+
 def config_page() -> str:
+    from .scenario import compose
+
+    run = as_run("run")
     out = ["# Configuration", "",
            ("Generated from the dataclass schemas of `ballmill/config.py`, which also check every value (a number "
-           "outside its range, an unknown key or option is refused before anything runs). Units are in the "
-           "names; `allowed` is an interval (round brackets: the end excluded) or a list of choices; `null` "
-           "turns an optional field off. Override any field on the command line: `ballmill run sim.dt_fraction=0.3`."),
+           "outside its range, an unknown key or option is refused before anything runs), and from the presets "
+           "in `conf/`. `default` is the value `ballmill run` uses with no override: the group's default preset's "
+           "(`conf/config.yaml` names them; `ballmill run --cfg job` prints them all), which may differ from the "
+           "schema's. The other presets' columns show their values where they differ from it. Units are in the "
+           "names; `allowed` is an interval (round brackets: the end excluded) or a list of choices; `null` turns "
+           "an optional field off. Override any field on the command line: `ballmill run sim.dt_fraction=0.3`."),
            ""]
     for prefix, schema in config_groups():
         group = prefix.split(".")[0]
         out += [f"## {group}", "", summary_of(schema), ""]
-        presets = sorted((CONF_DIR / ("material" if group == "materials" else group)).glob("*.yaml"))
+        folder = "material" if group == "materials" else group
+        presets = sorted((CONF_DIR / folder).glob("*.yaml"))
         if presets:
-            out += [f"Options (`{group}=NAME`, files in `conf/{presets[0].parent.name}/`):", "",
+            out += [f"Presets (`{group}=NAME`, files in `conf/{folder}/`):", "",
                     *(f"- `{p.stem}`: {yaml_header(p) or 'the defaults below'}" for p in presets), ""]
-        out += [field_table(schema, prefix)]
+        side_by_side = {}
+        if 1 < len(presets) <= MAX_SIDE_BY_SIDE:
+            if group == "materials":  # each is composed under its own name: shown under NAME
+                side_by_side = {p.stem: OmegaConf.create({"materials": {"NAME": run.materials[p.stem]}})
+                                for p in presets}
+            else:
+                side_by_side = {p.stem: compose("config", [f"{group}={p.stem}"]) for p in presets
+                                if p.stem != run_defaults().get(group)}
+        name = run_defaults().get(group)
+        out += [field_table(schema, prefix, run, side_by_side, f"default (`{name}`)" if name else "default")]
     return "\n".join(out)
 
 
@@ -205,3 +241,17 @@ def data_page() -> str:
 
 PAGES: dict[str, Callable[[], str]] = {"commands": commands_page, "config": config_page, "columns": columns_page,
                                        "data": data_page}
+HEADER = ("<!-- Generated by `python -m ballmill.reference docs/reference` from the code; "
+          "tests/test_docs.py fails when it is stale. -->\n\n")
+
+
+def write_pages(folder: Path) -> None:
+    """Each page of PAGES as folder/NAME.md."""
+    for name, page in PAGES.items():
+        (folder / f"{name}.md").write_text(HEADER + page())
+
+
+if __name__ == "__main__":
+    import sys
+
+    write_pages(Path(sys.argv[1]))

@@ -187,8 +187,8 @@ RULE_COLUMNS = ["rule", "bpr", "residence_time_min", "residence_time_se_min", "f
 
 
 def scaleup_rule_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
-    """Each yield rule's mill per BPR; at BPR 19 against the seed's, and the mechanics behind the
-    difference: the lab's and the seed mill's dose rates and dissipation spectra side by side."""
+    """Each yield rule's mill per BPR; at BPR 19 against the paper's, and the mechanics behind the
+    difference: the lab's and the paper's mill's dose rates and dissipation spectra side by side."""
     ok = with_rule_labels(ok)
     table = ok[[c for c in RULE_COLUMNS if c in ok]].sort_values(["rule", "bpr"])
     write_table(table, out_dir / f"{name}_designs")
@@ -198,8 +198,8 @@ def scaleup_rule_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: 
         return lines
     seed = at19.loc["bpr_line"]
     head = ("| rule | residence time (min) | D x L (m) | balls | power (kW) | electricity ($/t PET) | purchase cost ($) "
-            "| x seed's residence time | x seed's power |")
-    lines += ["### BPR 19 against the seed's design", "", head, "|---|---|---|---|---|---|---|---|---|"]
+            "| x paper's residence time | x paper's power |")
+    lines += ["### BPR 19 against the paper's design", "", head, "|---|---|---|---|---|---|---|---|---|"]
     for rule, r in at19.iterrows():
         lines.append(f"| {rule} | {r.residence_time_min:.4g} | {r.diameter_m:.2f} x {r.length_m:.2f} | "
                      f"{r.ball_count:.0f} | {r.dem_power_w / 1e3:.4g} | {r.electricity_usd_per_t_pet:.3g} | "
@@ -210,7 +210,7 @@ def scaleup_rule_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: 
 
 
 def mechanics_lines(name: str, ok: pd.DataFrame, seed: pd.Series, out_dir: Path) -> list[str]:
-    """The lab's nominal condition beside the seed's mill at BPR 19: dose rates per kg of balls and
+    """The lab's nominal condition beside the paper's mill at BPR 19: dose rates per kg of balls and
     of PET, and where the dissipation falls on the impact-energy axis."""
     energy = ok[ok.calibration_dir.notna()] if "calibration_dir" in ok else ok.iloc[:0]
     if energy.empty:
@@ -511,6 +511,33 @@ def study_report(ok: pd.DataFrame) -> StudyReport:
     return to_object(study, StudyConfig, "study").report
 
 
+def band(ok: pd.DataFrame, value: str, low: str, high: str, digits: int) -> pd.Series:
+    """Each case's value with its Monte Carlo's 5-95 % band, `value (low-high)`, when there is one."""
+    shown = f"{{:.{digits}f}}".format
+    text = ok[value].map(shown)
+    return text + " (" + ok[low].map(shown) + "-" + ok[high].map(shown) + ")" if low in ok else text
+
+
+def headline(ok: pd.DataFrame) -> list[str]:
+    """The figures a reader wants first, one row per case: a plant's MSP and footprint with their
+    Monte Carlo bands, else a mill's power, electricity and purchase cost."""
+    cases = ok.apply(lambda rec: case_label(rec.to_dict()), axis=1) if len(ok) else pd.Series(dtype=str)
+    if "msp_usd_per_kg" in ok and "gwp_total_kg_per_kg" in ok:
+        frame = pd.DataFrame({
+            "case": cases,
+            "MSP $/kg rTPA (5-95 %)": band(ok, "msp_usd_per_kg", "msp_p5_usd_per_kg", "msp_p95_usd_per_kg", 3),
+            "footprint kg CO2e/kg rTPA (5-95 %)": band(ok, "gwp_total_kg_per_kg", "gwp_p5_kg_per_kg",
+                                                       "gwp_p95_kg_per_kg", 2)})
+    elif {"dem_power_w", "dem_power_se_w", "electricity_usd_per_t_pet", "purchase_cost_usd"} <= set(ok):
+        frame = pd.DataFrame({"case": cases, "power kW": (ok.dem_power_w / 1e3).map("{:.2f}".format) + " +- "
+                              + (ok.dem_power_se_w / 1e3).map("{:.2f}".format),
+                              "electricity $/t PET": ok.electricity_usd_per_t_pet.map("{:.2f}".format),
+                              "purchase cost $": ok.purchase_cost_usd.map("{:,.0f}".format)})
+    else:
+        return []
+    return ["## Headline", "", frame.to_markdown(index=False), ""]
+
+
 def report(sweep_dir: Path, out_dir: Path) -> Path:
     """Tables (Parquet + CSV with provenance), figures and <study>.md for one sweep folder."""
     df = collect(sweep_dir)
@@ -520,7 +547,8 @@ def report(sweep_dir: Path, out_dir: Path) -> Path:
     spec = study_report(ok)
     out_dir.mkdir(parents=True, exist_ok=True)
     write_table(df, out_dir / name)
-    lines = [f"# {name}: {len(ok)} finished, {len(failed)} failed runs", "", f"Sweep folder: `{sweep_dir}`", ""]
+    lines = [f"# {name}: {len(ok)} finished, {len(failed)} failed runs", "", f"Sweep folder: `{sweep_dir}`", "",
+             *headline(ok)]
     if len(ok) and spec.figure:
         save_figure(FIGURES[spec.figure](ok), out_dir / name)
         lines += [f"![{name}]({name}.png)", ""]
@@ -531,5 +559,31 @@ def report(sweep_dir: Path, out_dir: Path) -> Path:
     for rec in ok[ok.dem_steady.eq(False)].itertuples() if "dem_steady" in ok else ():
         lines.append(f"- UNSTEADY `{rec.job_dir}`: the power is not the steady one: {rec.dem_unsteady_reason}")
     path = out_dir / f"{name}.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def finished(out_dir: Path, name: str) -> pd.DataFrame:
+    """The finished runs of a report in out_dir (its <name>.parquet)."""
+    df = pd.read_parquet(out_dir / f"{name}.parquet")
+    return df[df.status == "ok"]
+
+
+def index(out_dir: Path) -> Path:
+    """out_dir/index.md: each report in the folder with its headline, and a link to each of its
+    tables and figures (a file belongs to the report whose name is the longest prefix of its own)."""
+    reports = sorted(p.stem for p in out_dir.glob("*.md") if p.name != "index.md" and (out_dir / f"{p.stem}.parquet").is_file())
+    files: dict[str, list[str]] = {name: [] for name in reports}
+    for path in sorted(out_dir.iterdir()):
+        owner = max((n for n in reports if path.name.startswith((f"{n}.", f"{n}_"))), key=len, default=None)
+        if owner and path.suffix != ".md":
+            files[owner].append(path.name)
+    lines = ["# Report", "", f"Every table (Parquet, CSV) and figure (PNG, SVG) in `{out_dir}`, by report.", ""]
+    for name in reports:
+        title = (out_dir / f"{name}.md").read_text().splitlines()[0].removeprefix("# ")
+        lines += [f"## [{title}]({name}.md)", "",
+                  *(f"#{line}" if line.startswith("## ") else line for line in headline(finished(out_dir, name))),
+                  "Files: " + ", ".join(f"[{f}]({f})" for f in files[name]), ""]
+    path = out_dir / "index.md"
     path.write_text("\n".join(lines) + "\n")
     return path
