@@ -153,12 +153,44 @@ for args in json.loads(sys.argv[1]):
 """
 
 
+# What each command prints as it ends (cli.py), looked for in its output: a design's or a plant's
+# single run its power (a sweep prints no headline of its own: test_sweeps reads its records),
+# a report the path of each page it wrote, whose title counts no failed run.
+HEADLINES = {
+    "--help": r"^  run +one scenario",
+    "run": r"^\S+: power [0-9.e+]+ \+- [0-9.e+]+ kW \((DEM|surrogate)\)",  # 4 and 2 figures: 1.1e+02
+    "report": r"^\S+\.md$",
+    "track": r"^\S+: 20 frames, frames with a ball lost \{[^}]*\}, mean speed [0-9.]+ m/s",
+    "render": r"^\S+: \d+ videos, manifest videos\.csv$",
+    "calibrate": r'^  "wall_restitution": 0\.6,$',
+    "surrogate": r"^\S+: 8 runs, 0 failed; errors",
+    "compare": r"^\S+: \d+ jobs, \d+ inside the training hull; \|power error\| median [0-9.]+ %",
+}
+
+
+def headline_missing(args: list[str], output: str, folder: Path) -> str | None:
+    """What the command's output lacks of its headline, or None."""
+    study = next((a.split("=", 1)[1] for a in args if a.startswith("study=")), "design")
+    if args[0] == "run" and ("-m" in args or any(a.startswith("+sweep=") for a in args) or
+                             study not in ("design", "plant")):
+        return None
+    found = re.findall(HEADLINES[args[0]], output, re.MULTILINE)
+    if not found:
+        return f"no line matching {HEADLINES[args[0]]!r}"
+    if args[0] == "report":
+        pages = re.findall(r"^(\S+\.md)$", output, re.MULTILINE)
+        bad = [page for page in pages if ", 0 failed runs" not in (folder / page).read_text().splitlines()[0]]
+        return f"pages with failed runs: {bad}" if bad else None
+    return None
+
+
 def test_the_groups_hold_every_page_with_a_command():
     assert sorted(name for names in GROUPS.values() for name in names) == sorted(p.name for p in PAGES)
 
 
 def test_every_command_shown_runs_on_small_inputs(stand_ins, tmp_path):
-    """Each group's commands in one process, the two groups side by side; the DEM cache shared."""
+    """Each group's commands in one process, the two groups side by side; the DEM cache shared;
+    each command's headline in what it printed (HEADLINES)."""
     drivers = {}
     for group, names in GROUPS.items():
         lines = dict.fromkeys(line for name in names for page in PAGES if page.name == name for line in shown(page)
@@ -166,15 +198,19 @@ def test_every_command_shown_runs_on_small_inputs(stand_ins, tmp_path):
         commands = [small(shlex.split(line)[1:], tmp_path / "cache", stand_ins) for line in lines]
         folder = tmp_path / group.replace(" ", "_").replace("'", "")
         folder.mkdir()
-        drivers[group] = (commands, subprocess.Popen([sys.executable, "-c", DRIVER, json.dumps(commands)], cwd=folder,
-                                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True))
+        drivers[group] = (commands, folder, subprocess.Popen([sys.executable, "-c", DRIVER, json.dumps(commands)],
+                                                             cwd=folder, stdout=subprocess.PIPE,
+                                                             stderr=subprocess.STDOUT, text=True))
     failed = []
-    for group, (commands, proc) in drivers.items():
+    for group, (commands, folder, proc) in drivers.items():
         log = proc.communicate(timeout=1500)[0]
         statuses = re.findall(r"^=== exit (\d+) after ([0-9.]+) s", log, re.MULTILINE)
         parts = re.split(r"^=== ballmill ", log, flags=re.MULTILINE)[1:]
         print(group, [f"{' '.join(c[:3])} {t} s" for c, (_, t) in zip(commands, statuses)])
         failed += [f"{group}: ballmill {part[-2500:]}" for part, (status, _) in zip(parts, statuses) if status != "0"]
+        failed += [f"{group}: ballmill {' '.join(c)}: {missing}\n{part[-1500:]}"
+                   for c, part, (status, _) in zip(commands, parts, statuses)
+                   if status == "0" and (missing := headline_missing(c, part, folder))]
         if len(statuses) != len(commands):
             failed.append(f"{group}: {len(statuses)} of {len(commands)} commands ended\n{log[-5000:]}")
     assert not failed, "\n\n".join(failed)
