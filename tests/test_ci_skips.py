@@ -1,6 +1,7 @@
 """On CI a skipped test fails the run, except the CUDA comparison's skip (tests/conftest.py):
 sessions of a stand-in suite under the suite's conftest, a passing test beside a skipped one."""
 
+import sys
 from pathlib import Path
 
 import pytest
@@ -28,6 +29,7 @@ def test_on_ci_a_skip_fails_the_run_unless_it_is_the_cuda_comparisons(pytester, 
         monkeypatch.setenv("CI", "true")
     else:
         monkeypatch.delenv("CI", raising=False)
+    monkeypatch.delitem(sys.modules, module, raising=False)  # the suite's own test_cuda, imported by name
     pytester.makeconftest(CONFTEST)
     pytester.makepyfile(**{module: PASS_AND_SKIP})
     result = pytester.runpytest("-p", "no:cacheprovider")
