@@ -183,7 +183,8 @@ RECORD = {
         "residence_time_se_min": ("standard error of the solved residence time: the mill's dose rate's and the "
                                   "target dose's (the yield model's, which holds the lab rates') relative errors "
                                   "/ (1 + fixed_point_rate_exponent)"),
-        "fixed_point_iterations": "DEM runs the fixed point took (the root's mill besides, when interpolated)",
+        "fixed_point_iterations": ("DEM runs the fixed point took (besides them: the two mills around the root that "
+                                   "measure its error, and the root's own mill when interpolated)"),
         "fixed_point_root": "how the residence time was found: interpolated inside a bracket, or simulated",
         "fixed_point_rate_exponent": ("alpha of the mill's dose rate ~ tau^alpha at the root (the mill-size "
                                       "feedback), measured on the mills at tau (1 + yield_model.sensitivity_step)^+-1"),

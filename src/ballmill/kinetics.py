@@ -19,10 +19,10 @@ run's dose rate carries its own relative error into the doses of its rows, as a 
 on them with u ~ N(0, the rate's relative standard error) fitted beside the parameters (errors in
 variables as a constrained nuisance parameter per run: its rows share it, so a run's error
 weighs as the rows it doses, not as one condition among equals).  The parameters' covariance is
-the model's block of (J^T J)^-1, their intervals normal.  A run with no dose under a measure (no
-impact reaches E*) has no rate error to carry: its rows can only tell the yield at zero dose.  A model is chosen, with its dose
-measure, by leave-one-condition-out cross-validation: each condition's rows predicted by the
-fit to the others; the candidates within one standard error of the lowest CV error, the one with
+the model's block of (J^T J)^-1; their intervals are likelihood-ratio intervals (profile_interval).
+A run with no dose under a measure (no impact reaches E*) has no rate error to carry: its rows can
+only tell the yield at zero dose.  A model is chosen, with its dose measure, by
+leave-one-condition-out cross-validation: each condition's rows predicted by the fit to the others; the candidates within one standard error of the lowest CV error, the one with
 the fewest parameters, then the first listed of those whose AIC (chi^2 + 2 k) is within 2 of
 the lowest (Hastie, Tibshirani & Friedman, The Elements of Statistical Learning, 2nd ed., 7.10:
 the one-standard-error rule; Burnham & Anderson, Model Selection and Multimodel Inference, 2nd
@@ -207,12 +207,16 @@ class Likelihood:
     def minimise(self, p0: np.ndarray, fixed: int | None = None):
         """least_squares from p0, parameter `fixed` held at its value in p0; (p, -2 log L)."""
         lo, hi = self.bounds
-        free = np.arange(len(p0)) != fixed
-        p0 = np.clip(p0, lo + 1e-12, hi)
-        res = optimize.least_squares(lambda q: self.residuals(np.where(free, np.insert(q, fixed, 0.0), p0)
-                                                             if fixed is not None else q),
-                                     p0[free], bounds=(lo[free], hi[free]), x_scale="jac", method="trf")
-        return (np.insert(res.x, fixed, p0[fixed]) if fixed is not None else res.x), 2 * res.cost, res.jac
+        p = np.clip(p0, lo + 1e-12, hi)
+        free = np.arange(len(p)) != fixed
+
+        def residuals(q):
+            p[free] = q
+            return self.residuals(p)
+
+        res = optimize.least_squares(residuals, p[free], bounds=(lo[free], hi[free]), x_scale="jac", method="trf")
+        p[free] = res.x
+        return p, 2 * res.cost, res.jac
 
 
 def fit_model(model: str, x: np.ndarray, y: np.ndarray, sigma: np.ndarray, errors: DoseErrors | None = None,

@@ -199,7 +199,7 @@ def time_curves(s: Scenario, y: YieldPlan, rec: dict) -> tuple[pd.DataFrame, pd.
     against the mean residence time); the experiments as points."""
     curve, rtd, rule = y.curve, s.yield_model.rtd, yield_rules.rule_of(s.yield_model.rule)
     rate = rec[f"{curve.rate.replace('_per_kg', '_per_kg_pet')}"]
-    until = TIME_SPAN * max(rec["residence_time_min"], rule.longest_lab_time_min(s))  # past the last experiment
+    until = TIME_SPAN * max(rec["residence_time_min"], rule.longest_lab_time_min(s, curve))  # past the last experiment
     lab, points = rule.lab_time_curves(s, curve, rec, until)
     t = np.linspace(0.0, until, 200)
     mill = [pd.DataFrame({"series": "mill, plug flow", "time_min": t,

@@ -34,7 +34,7 @@ class YieldRule:
         predicts the collision power alone)."""
         return False
 
-    def longest_lab_time_min(self, s) -> float:
+    def longest_lab_time_min(self, s, curve) -> float:
         """The longest milling time of the lab experiments behind the curve (min)."""
         return s.yield_model.lab_time_min
 

@@ -3,10 +3,12 @@ studies/yield_fit.py: fitted first when missing, cached by the table's hash)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pandas as pd
 
 from ..kinetics import lab_time_curves
-from ..studies.yield_fit import checked_experiments, fit_folder, fitted_curve, is_fitted
+from ..studies.yield_fit import checked_experiments, fitted_curve, is_fitted
 from .base import CurvePlan, YieldRule
 
 
@@ -18,9 +20,10 @@ class Fitted(YieldRule):
         return CurvePlan(lambda: fitted_curve(s, exps), {}, is_fitted(s, exps))
 
     def lab_time_curves(self, s, curve, rec, until_min):
-        """Each experimental condition at its lab dose rate; the experiments as points."""
-        rows = pd.read_csv(fit_folder(s, checked_experiments(s)) / "rows.csv")
+        """Each experimental condition at its lab dose rate; the experiments as points (the rows of
+        the curve's fit)."""
+        rows = pd.read_csv(Path(curve.folder) / "rows.csv")
         return lab_time_curves(curve, rows, until_min), rows
 
-    def longest_lab_time_min(self, s) -> float:
-        return float(pd.read_csv(fit_folder(s, checked_experiments(s)) / "rows.csv").time_min.max())
+    def longest_lab_time_min(self, s, curve) -> float:
+        return float(pd.read_csv(Path(curve.folder) / "rows.csv").time_min.max())
