@@ -104,7 +104,10 @@ def reproduce() -> None:
 
 
 def test() -> None:
-    sh(str(BIN / "python"), "-m", "pytest", "-q", "-ra", "--durations=15", *sys.argv[2:])
+    """The suite, one worker per core (pytest-xdist), each test file whole on one worker so that
+    its module fixtures are built once."""
+    sh(str(BIN / "python"), "-m", "pytest", "-q", "-ra", "--durations=15", "-n", "auto", "--dist", "loadfile",
+       *sys.argv[2:])
 
 
 if __name__ == "__main__":
