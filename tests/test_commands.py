@@ -1,13 +1,13 @@
 """Every command the README and the docs show (the tutorials are run as written by test_docs),
 run on small inputs, so that a field added in one place cannot break a command elsewhere
 unseen.  The pages fall in two groups, run side by side, each in a folder of its own with its
-pages' commands in order (a command shown twice in a group runs once: its outputs are there
-for the commands after it).  "Small" is the test preset (sim=test) with a shorter window, short
+pages' commands in order (a command shown twice runs once: its outputs are there for the
+commands after it).  "Small" is the test preset (sim=test) with a shorter window, short
 lab runs, small drums, a few Monte Carlo draws, and a sweep cut to one or two of its jobs; a
 user's own file (a price table, an STL, a video) is stood in for by one made here.  A command
 that needs what this machine lacks (a cluster, a GPU, the peer programs) or hours is not run
 but still checked as `ballmill` checks it before running anything (composed, range-checked,
-every job planned)."""
+every job planned).  The cookbook's figures are checked against what its commands print."""
 
 import json
 import re
@@ -224,16 +224,15 @@ def test_every_command_shown_runs_on_small_inputs(stand_ins, tmp_path):
     """Each group's commands in one process, the two groups side by side; the DEM cache shared; a
     command shown on several pages run once; each command's headline in what it printed
     (HEADLINES) and the cookbook's figures in it (figures_off)."""
-    drivers, jobs, ran = {}, {}, {}  # small arguments: their group; a line shown: its small arguments
+    drivers, ran = {}, {}  # a line shown: its group and its small arguments
     pages = sorted(((group, name) for group, names in GROUPS.items() for name in names),
-                   key=lambda page: page[1] in SURROGATE_PAGES)  # the cookbook's last: the others run theirs
+                   key=lambda page: page[1] in SURROGATE_PAGES)  # the cookbook's last: another page's runs as it is
     for group, name in pages:
         for line in (line for page in PAGES if page.name == name for line in shown(page)
-                     if not line.startswith(tuple(NOT_RUN))):
-            ran[line] = tuple(small(shlex.split(line)[1:], tmp_path / "cache", stand_ins, name in SURROGATE_PAGES))
-            jobs.setdefault(ran[line], group)
+                     if not line.startswith(tuple(NOT_RUN)) and line not in ran):
+            ran[line] = group, small(shlex.split(line)[1:], tmp_path / "cache", stand_ins, name in SURROGATE_PAGES)
     for group in GROUPS:
-        commands = [list(args) for args, g in jobs.items() if g == group]
+        commands = [args for g, args in ran.values() if g == group]
         folder = tmp_path / group.replace(" ", "_").replace("'", "")
         folder.mkdir()
         drivers[group] = (commands, folder, subprocess.Popen([sys.executable, "-c", DRIVER, json.dumps(commands)],
@@ -252,5 +251,5 @@ def test_every_command_shown_runs_on_small_inputs(stand_ins, tmp_path):
                    if status == "0" and (missing := headline_missing(c, part, folder))]
         if len(statuses) != len(commands):
             failed.append(f"{group}: {len(statuses)} of {len(commands)} commands ended\n{log[-5000:]}")
-    failed += figures_off({line: outputs.get(args, "") for line, args in ran.items()})
+    failed += figures_off({line: outputs[tuple(args)] for line, (_, args) in ran.items() if tuple(args) in outputs})
     assert not failed, "\n\n".join(failed)
