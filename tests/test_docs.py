@@ -207,7 +207,7 @@ def test_the_own_data_pages_edits_of_a_table_change_exactly_the_row_they_name(tm
     lines = [line for block in re.findall(r"^```\n(.*?)^```", (ROOT / "docs/how-to/own-data.md").read_text(),
                                           re.MULTILINE | re.DOTALL) for line in block.splitlines() if line.startswith("sed ")]
     (tmp_path / "data").mkdir()
-    tables = {"prices.csv": tmp_path / "prices_2025.csv", "ghg_factors.csv": tmp_path / "data/ghg_factors.csv"}
+    tables = {"prices.csv": tmp_path / "prices_2025.csv"}
     for name in tables:
         shutil.copy(ROOT / "src/ballmill/data" / name, tmp_path / "data" / name)
     for line in lines:
