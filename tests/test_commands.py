@@ -48,10 +48,12 @@ NOT_RUN = {
 SURROGATE_PAGES = ("cookbook.md",)
 
 # What makes a command small: overrides put in place of the command's own for the same key (the
-# lab calibration of the energy rules keeps its length: its dose line sets their mills' size).
+# window in seconds, not revolutions; a plant's break-even searched for one lever; the lab
+# calibration of the energy rules keeps its length: its dose line sets their mills' size).
 LAB = ["lab.duration_s=0.3", "lab.settle_s=0.1", "lab.frequencies_hz=[25.0]", "lab.ball_diameters_m=[0.0176]"]
 RUN = ["sim=test", "sim.threads=1", "sim.shear_modulus_scale=0.01", "sim.settle_s=0.1", "sim.steady_after_s=0.1",
-       "sim.duration_s=0.3", "plant.monte_carlo_draws=10", "optimiser.trials=30", "yield_model.lab.frequencies_hz=[30.0]",
+       "sim.duration_s=0.3", "sim.startup_revolutions=null", "sim.window_revolutions=null", "plant.monte_carlo_draws=10",
+       "plant.what_it_takes=[price.naoh]", "optimiser.trials=30", "yield_model.lab.frequencies_hz=[30.0]",
        "yield_model.lab.ball_diameters_m=[0.0206]", "yield_model.lab.jar_inner_diameters_m=[0.028]",
        "yield_model.lab.jar_inner_lengths_m=[0.05]", "yield_model.lab.starts=2", *LAB]
 SWEEP_JOBS = {"fig3b": ["scaleup.bpr=19,22.9"], "fig4": ["scaleup.region=DC,DE"], "plant": ["scaleup.bpr=19"],
