@@ -1,13 +1,13 @@
 """Every command the README and the docs show (the tutorials are run as written by test_docs),
 run on small inputs, so that a field added in one place cannot break a command elsewhere
 unseen.  The pages fall in two groups, run side by side, each in a folder of its own with its
-pages' commands in order (a command shown twice in a group runs once: its outputs are there
-for the commands after it).  "Small" is the test preset (sim=test) with a shorter window, short
+pages' commands in order (a command shown twice runs once: its outputs are there for the
+commands after it).  "Small" is the test preset (sim=test) with a shorter window, short
 lab runs, small drums, a few Monte Carlo draws, and a sweep cut to one or two of its jobs; a
 user's own file (a price table, an STL, a video) is stood in for by one made here.  A command
 that needs what this machine lacks (a cluster, a GPU, the peer programs) or hours is not run
 but still checked as `ballmill` checks it before running anything (composed, range-checked,
-every job planned)."""
+every job planned).  The cookbook's figures are checked against what its commands print."""
 
 import json
 import re
@@ -21,15 +21,16 @@ import cv2
 import numpy as np
 import pytest
 import trimesh
+import yaml
 
 from ballmill.cli import compose_command, options
 from ballmill.jobs import check_jobs
+from ballmill.studies import mechanics
 from ballmill.vision.frames import write_frames
 
 ROOT = Path(__file__).resolve().parents[1]
-# the tutorials run in test_docs as written; the cookbook's commands are checked there, not run
-DOCS = [ROOT / "README.md", *sorted(p for p in (ROOT / "docs").rglob("*.md")
-                                    if p.parent.name != "tutorials" and p.name != "cookbook.md")]
+# the tutorials run in test_docs as written
+DOCS = [ROOT / "README.md", *sorted(p for p in (ROOT / "docs").rglob("*.md") if p.parent.name != "tutorials")]
 
 # Shown, not run here, and why (checked as ballmill checks them before running).
 NOT_RUN = {
@@ -38,13 +39,21 @@ NOT_RUN = {
     "ballmill bench peer=both rounds=3": "LIGGGHTS and LAMMPS (test_peer_torque runs LIGGGHTS where installed)",
     "ballmill run +sweep=fig4 sim=paper sim.arch=cuda sim.threads=1 hydra/launcher=slurm": "a SLURM cluster with GPUs",
     "ballmill report sweeps=[/shared/ballmill/fig4]": "the cluster sweep's folder",
+    "ballmill run +sweep=fig3b sim=paper sim.threads=2 hydra/launcher=slurm": "a SLURM cluster",
+    "ballmill run sim.arch=cuda": "a GPU",
 }
+# The cookbook's figures are full-size runs' (docs/numbers.yaml, `printed`): its designs and plants
+# run small with the DEM's surrogate, which agrees with the DEM within its measured error, so that
+# the small run prints the figure the full one did.
+SURROGATE_PAGES = ("cookbook.md",)
 
 # What makes a command small: overrides put in place of the command's own for the same key (the
-# lab calibration of the energy rules keeps its length: its dose line sets their mills' size).
+# window in seconds, not revolutions; a plant's break-even searched for one lever; the lab
+# calibration of the energy rules keeps its length: its dose line sets their mills' size).
 LAB = ["lab.duration_s=0.3", "lab.settle_s=0.1", "lab.frequencies_hz=[25.0]", "lab.ball_diameters_m=[0.0176]"]
 RUN = ["sim=test", "sim.threads=1", "sim.shear_modulus_scale=0.01", "sim.settle_s=0.1", "sim.steady_after_s=0.1",
-       "sim.duration_s=0.3", "plant.monte_carlo_draws=10", "optimiser.trials=30", "yield_model.lab.frequencies_hz=[30.0]",
+       "sim.duration_s=0.3", "sim.startup_revolutions=null", "sim.window_revolutions=null", "plant.monte_carlo_draws=10",
+       "plant.what_it_takes=[price.naoh]", "optimiser.trials=30", "yield_model.lab.frequencies_hz=[30.0]",
        "yield_model.lab.ball_diameters_m=[0.0206]", "yield_model.lab.jar_inner_diameters_m=[0.028]",
        "yield_model.lab.jar_inner_lengths_m=[0.05]", "yield_model.lab.starts=2", *LAB]
 SWEEP_JOBS = {"fig3b": ["scaleup.bpr=19,22.9"], "fig4": ["scaleup.region=DC,DE"], "plant": ["scaleup.bpr=19"],
@@ -71,14 +80,17 @@ def key(override: str) -> str:
     return override.lstrip("+").split("=", 1)[0]
 
 
-def small(args: list[str], cache: Path, stand_ins: dict[str, str]) -> list[str]:
-    """The command's arguments on small inputs, with this test's stand-ins for a user's files."""
+def small(args: list[str], cache: Path, stand_ins: dict[str, str], surrogate: bool = False) -> list[str]:
+    """The command's arguments on small inputs, with this test's stand-ins for a user's files (a
+    design's or a plant's power from the surrogate where `surrogate`)."""
     args = [re.sub("|".join(map(re.escape, stand_ins)), lambda m: stand_ins[m[0]], a) if stand_ins else a
             for a in args]
     command, rest = args[0], args[1:]
     if command == "run":
         sweep = next((a.split("=", 1)[1] for a in rest if a.startswith("+sweep=")), None)
         extra = SWEEP_JOBS[sweep] if sweep == "lab_validation" else [*RUN, *SWEEP_JOBS.get(sweep, [])]
+        if surrogate and single_design_or_plant(rest) and not any(key(a) == "dem" for a in rest):
+            extra = [*extra, "dem=surrogate"]
         if "study=drum" in rest:  # the reference drum's 8,640 balls of 10 mm: 40 of 60 mm
             extra = [*extra, "mill.ball_radius_m=0.03"]
         # jobs' folders by number: these overrides would name them past the file system's limit
@@ -113,7 +125,7 @@ def stand_ins(tmp_path_factory) -> dict[str, str]:
 
 
 PAGES = [page for page in DOCS if shown(page)]
-GROUPS = {"the user's guide": ("README.md", "getting-started.md", "own-mill.md", "cluster.md"),
+GROUPS = {"the user's guide": ("README.md", "getting-started.md", "own-mill.md", "cluster.md", "cookbook.md"),
           "studies": ("own-data.md", "plant.md", "surrogate.md", "yield-rules.md")}
 
 
@@ -123,7 +135,9 @@ def test_the_pages_show_the_commands_listed_as_not_run_here():
         assert any(shown_line.startswith(line) for shown_line in every), f"no page shows {line!r} any more"
 
 
-def test_the_commands_not_run_here_are_checked_as_ballmill_checks_them():
+def test_the_commands_not_run_here_are_checked_as_ballmill_checks_them(monkeypatch):
+    """As on a machine with a GPU (this one may have none)."""
+    monkeypatch.setattr(mechanics, "cuda_available", lambda: True)
     for line in {line for page in PAGES for line in shown(page) if line.startswith(tuple(NOT_RUN))}:
         args = shlex.split(line)
         if args[0] != "ballmill":
@@ -168,11 +182,15 @@ HEADLINES = {
 }
 
 
+def single_design_or_plant(args: list[str]) -> bool:
+    """Whether `ballmill run ARGS` is one design or one plant."""
+    study = next((a.split("=", 1)[1] for a in args if a.startswith("study=")), "design")
+    return "-m" not in args and not any(a.startswith("+sweep=") for a in args) and study in ("design", "plant")
+
+
 def headline_missing(args: list[str], output: str, folder: Path) -> str | None:
     """What the command's output lacks of its headline, or None."""
-    study = next((a.split("=", 1)[1] for a in args if a.startswith("study=")), "design")
-    if args[0] == "run" and ("-m" in args or any(a.startswith("+sweep=") for a in args) or
-                             study not in ("design", "plant")):
+    if args[0] == "run" and not single_design_or_plant(args[1:]):
         return None
     found = re.findall(HEADLINES[args[0]], output, re.MULTILINE)
     if not found:
@@ -188,29 +206,55 @@ def test_the_groups_hold_every_page_with_a_command():
     assert sorted(name for names in GROUPS.values() for name in names) == sorted(p.name for p in PAGES)
 
 
+def figure(text: str) -> float:
+    """The first number of a figure as written (1,234.5 +- 6: 1234.5)."""
+    return float(re.search(r"-?[0-9][0-9,]*(\.[0-9]+)?(e[+-]?[0-9]+)?", text)[0].replace(",", ""))
+
+
+def figures_off(printed: dict[str, str]) -> list[str]:
+    """Each figure of docs/numbers.yaml that names the command printing it (`printed`: by, as,
+    within) against what that command printed, where it is not within `within` of it."""
+    off = []
+    for name, entry in yaml.safe_load((ROOT / "docs/numbers.yaml").read_text()).items():
+        if "printed" in entry:
+            by, label, within = entry["printed"]["by"], entry["printed"]["as"], entry["printed"]["within"]
+            found = re.search(rf"\b{re.escape(label)} (-?[0-9][0-9,.]*)", printed.get(by, ""))
+            if not found or abs(figure(found[1]) / figure(str(entry["value"])) - 1) > figure(within) / 100:
+                off.append(f"{name}: {by} printed {found[0] if found else 'no ' + label}; the full run "
+                           f"{entry['value']} (within {within})")
+    return off
+
+
 def test_every_command_shown_runs_on_small_inputs(stand_ins, tmp_path):
-    """Each group's commands in one process, the two groups side by side; the DEM cache shared;
-    each command's headline in what it printed (HEADLINES)."""
-    drivers = {}
-    for group, names in GROUPS.items():
-        lines = dict.fromkeys(line for name in names for page in PAGES if page.name == name for line in shown(page)
-                              if not line.startswith(tuple(NOT_RUN)))
-        commands = [small(shlex.split(line)[1:], tmp_path / "cache", stand_ins) for line in lines]
+    """Each group's commands in one process, the two groups side by side; the DEM cache shared; a
+    command shown on several pages run once; each command's headline in what it printed
+    (HEADLINES) and the cookbook's figures in it (figures_off)."""
+    drivers, ran = {}, {}  # a line shown: its group and its small arguments
+    pages = sorted(((group, name) for group, names in GROUPS.items() for name in names),
+                   key=lambda page: page[1] in SURROGATE_PAGES)  # the cookbook's last: another page's runs as it is
+    for group, name in pages:
+        for line in (line for page in PAGES if page.name == name for line in shown(page)
+                     if not line.startswith(tuple(NOT_RUN)) and line not in ran):
+            ran[line] = group, small(shlex.split(line)[1:], tmp_path / "cache", stand_ins, name in SURROGATE_PAGES)
+    for group in GROUPS:
+        commands = [args for g, args in ran.values() if g == group]
         folder = tmp_path / group.replace(" ", "_").replace("'", "")
         folder.mkdir()
         drivers[group] = (commands, folder, subprocess.Popen([sys.executable, "-c", DRIVER, json.dumps(commands)],
                                                              cwd=folder, stdout=subprocess.PIPE,
                                                              stderr=subprocess.STDOUT, text=True))
-    failed = []
+    failed, outputs = [], {}
     for group, (commands, folder, proc) in drivers.items():
         log = proc.communicate(timeout=1500)[0]
         statuses = re.findall(r"^=== exit (\d+) after ([0-9.]+) s", log, re.MULTILINE)
         parts = re.split(r"^=== ballmill ", log, flags=re.MULTILINE)[1:]
         print(group, [f"{' '.join(c[:3])} {t} s" for c, (_, t) in zip(commands, statuses)])
+        outputs |= {tuple(c): part for c, part in zip(commands, parts)}
         failed += [f"{group}: ballmill {part[-2500:]}" for part, (status, _) in zip(parts, statuses) if status != "0"]
         failed += [f"{group}: ballmill {' '.join(c)}: {missing}\n{part[-1500:]}"
                    for c, part, (status, _) in zip(commands, parts, statuses)
                    if status == "0" and (missing := headline_missing(c, part, folder))]
         if len(statuses) != len(commands):
             failed.append(f"{group}: {len(statuses)} of {len(commands)} commands ended\n{log[-5000:]}")
+    failed += figures_off({line: outputs[tuple(args)] for line, (_, args) in ran.items() if tuple(args) in outputs})
     assert not failed, "\n\n".join(failed)

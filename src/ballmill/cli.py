@@ -280,7 +280,7 @@ def run_command(args: list[str]) -> None:
     jobs = records_since(sweep_dir, started) if sweep_dir else run_module.JOBS[first:]
     if not sweep_dir:
         for folder, record in jobs:
-            if record["status"] == "ok" and "dem_power_w" in record:
+            if record["status"] == "ok" and ("dem_power_w" in record or "fit_candidate" in record):
                 print(result_line(folder, record))
     unsteady = [folder for folder, record in jobs if record.get("dem_steady") is False]
     if len(unsteady) == 1:
@@ -296,14 +296,18 @@ def run_command(args: list[str]) -> None:
 
 
 def result_line(folder: Path, record: dict) -> str:
-    """A finished run's headline numbers in one line: the mill's power (and where it comes from),
-    and what the study made of it."""
+    """A finished run's headline numbers in one line: the mill's power (and where it comes from)
+    or the kinetics fit's choice, and what the study made of it."""
     source = {"full": "DEM", "surrogate": "surrogate"}.get(record.get("dem_source"), "DEM")
-    parts = [f"power {record['dem_power_w'] / 1e3:.4g} +- {record['dem_power_se_w'] / 1e3:.2g} kW ({source})"]
-    for key, text in (("residence_time_min", "residence time {:.3g} min"), ("yield_percent", "yield {:.3g} %"),
+    parts = [f"power {record['dem_power_w'] / 1e3:.4g} +- {record['dem_power_se_w'] / 1e3:.2g} kW ({source})"
+             ] if "dem_power_w" in record else []
+    for key, text in (("fit_candidate", "fit {}"), ("fit_a_percent", "intercept {:.4g} %"),
+                      ("fit_cv_rmse_percent", "cross-validated error {:.2g} %"),
+                      ("residence_time_min", "residence time {:.3g} min"), ("yield_percent", "yield {:.3g} %"),
                       ("electricity_usd_per_t_pet", "electricity {:.3g} $/t PET"),
-                      ("purchase_cost_usd", "purchase cost {:,.0f} $"), ("msp_usd_per_kg", "MSP {:.3g} $/kg rTPA")):
-        if isinstance(record.get(key), (int, float)):
+                      ("purchase_cost_usd", "purchase cost {:,.0f} $"), ("msp_usd_per_kg", "MSP {:.3g} $/kg rTPA"),
+                      ("gwp_total_kg_per_kg", "footprint {:.3g} kg CO2e/kg rTPA")):
+        if isinstance(record.get(key), (int, float, str)):
             parts.append(text.format(record[key]))
     return f"{folder}: {', '.join(parts)}"
 
