@@ -228,6 +228,7 @@ RUN = [
      r"dem=surrogate: yield_model.rule=impact_threshold needs the impact spectrum"),
     (["dem=surrogate", "dem.table=/no/such.csv"], r"dem.table=/no/such.csv: no such data/ table or file"),
     (["dem=fast"], r"dem.*fast.*available: full, surrogate"),
+    (["dem=surrogate", "dem.outside=maybe"], r"dem.outside='maybe' is not one of \['refuse', 'full'\]"),
     (["study=drum", "dem=surrogate"], r"dem=surrogate: study=drum is the DEM of the mill group's drum"),
     (["study=cheapest_mill", "optimiser.fill_fraction=[0.1,0.4]"],
      r"optimiser.fill_fraction\[0\]=0.1 is outside the allowed range \[0.2, 0.45\]"),

@@ -109,6 +109,8 @@ RECORD = {
         "dem_key": "hash of what determines the DEM run: its folder under outputs/cache/dem/",
         "dem_dir": "the DEM's cache folder (loads, energy, collisions, trajectories)",
         "dem_source": "full (the DEM) or surrogate",
+        "dem_outside_surrogate": "dem=surrogate: the design lay outside the surrogate's training runs and "
+                                 "dem.outside=full ran the DEM for it",
         "dem_table": "the surrogate's training table (dem=surrogate)",
         "dem_balls": "balls simulated", "dem_ball_mass_kg": "mass of the balls (surrogate)",
         "dem_speed_rpm": "drum speed", "dem_critical_speed_rpm": "critical speed of the drum",

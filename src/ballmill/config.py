@@ -653,7 +653,11 @@ class DemConfig:
     table: str = field(default="surrogate_training.csv", metadata={
         "doc": "the surrogate's training table: a data/ table or a path (from `ballmill surrogate`)"})
     allow_extrapolation: bool = field(default=False, metadata={
-        "doc": "evaluate designs outside the hull of the training runs (refused otherwise)"})
+        "doc": "evaluate designs outside the hull of the training runs by the surrogate anyway"})
+    outside: str = field(default="refuse", metadata={
+        "choices": ("refuse", "full"),
+        "doc": "dem=surrogate, a design outside the hull of the training runs (allow_extrapolation false): refuse it, "
+               "or run the DEM for it (its record says dem_source=full, dem_outside_surrogate=true)"})
 
 
 @dataclass
