@@ -228,6 +228,8 @@ RUN = [
      r"dem=surrogate: yield_model.rule=impact_threshold needs the impact spectrum"),
     (["dem=surrogate", "dem.table=/no/such.csv"], r"dem.table=/no/such.csv: no such data/ table or file"),
     (["dem=fast"], r"dem.*fast.*available: full, surrogate"),
+    (["study=plant", "plant.options_front=[heat,colour]"],
+     r"plant.options_front=\['heat', 'colour'\]: give each of \['evaporation', 'heat', 'sodium', 'naoh_dosing'\] at most once"),
     (["dem=surrogate", "dem.outside=maybe"], r"dem.outside='maybe' is not one of \['refuse', 'full'\]"),
     (["study=drum", "dem=surrogate"], r"dem=surrogate: study=drum is the DEM of the mill group's drum"),
     (["study=cheapest_mill", "optimiser.fill_fraction=[0.1,0.4]"],

@@ -15,6 +15,7 @@ from ballmill.config import EconomicsConfig, EvaporationConfig, HeatConfig, Plan
 from ballmill.plant import uncertainty
 from ballmill.plant.correlations import price
 from ballmill.plant.model import plant
+from ballmill.plant.options import options_table, pareto_front
 from ballmill.plant.study import variants
 from ballmill.plant.system import MillSpec, fresh_pet_kg_per_h
 from ballmill.plant.what_it_takes import break_even
@@ -349,3 +350,30 @@ def test_landfilled_salt_pays_the_tip_fee_and_the_landfills_factor():
     record = p.record(p.evaluate()["msp_usd_per_kg"])
     assert record["msp_landfilled_salt_usd_per_kg"] == pytest.approx(salt.F_mass * 0.05956 / rtpa, rel=1e-9)
     assert record["gwp_landfilled_salt_kg_per_kg"] == pytest.approx(salt.F_mass * 0.07 / rtpa, rel=1e-9)
+
+
+def test_the_pareto_front_keeps_the_points_nothing_beats_in_both():
+    """(cost, footprint): a (1, 5), b (2, 3), c (3, 1) trade one for the other: on the front;
+    d (2, 4) is beaten by b (2, 3: as cheap, cleaner); e (4, 4) by b; f (3, 1) ties c exactly:
+    neither beats the other, both stay; g (1, 6) is beaten by a (as cheap, cleaner)."""
+    cost = [1, 2, 3, 2, 4, 3, 1]
+    footprint = [5, 3, 1, 4, 4, 1, 6]
+    assert pareto_front(cost, footprint).tolist() == [True, True, True, False, False, True, False]
+
+
+def test_each_option_combination_is_the_plant_with_those_options(built):
+    """The combination that takes one option alone is that option's variant row; the front holds
+    the cheapest and the cleanest combination."""
+    table = options_table(built, ["evaporation", "heat", "sodium", "naoh_dosing"])
+    assert len(table) == 2 * 3 * 3 * 2
+    rows = variants(built).set_index("variant")
+    one = {"evaporation by vapour recompression (plant/evaporation=mvr)": ("mvr", "bought_steam", "salt", "whole_feed"),
+           "NaOH dosed only on the PET that converts": ("multi_effect", "bought_steam", "salt", "converting_pet"),
+           "Na2SO4 split back to NaOH and H2SO4 (plant/sodium=bpmed)": ("multi_effect", "bought_steam", "bpmed",
+                                                                        "whole_feed")}
+    for variant, options in one.items():
+        row = table.set_index(["evaporation", "heat", "sodium", "naoh_dosing"]).loc[options]
+        assert row.msp_usd_per_kg == pytest.approx(rows.at[variant, "msp_usd_per_kg"], rel=1e-9), variant
+        assert row.gwp_kg_per_kg == pytest.approx(rows.at[variant, "gwp_kg_per_kg"], rel=1e-9), variant
+    assert table.on_front[table.msp_usd_per_kg.idxmin()] and table.on_front[table.gwp_kg_per_kg.idxmin()]
+    assert (table.below_virgin_price == (table.msp_usd_per_kg < 1.143)).all()  # data/prices.csv: tpa 1143 $/t

@@ -247,6 +247,7 @@ RECORD = {
                                                                       "(design_warnings.txt)",
         "plant_s": "wall time of the plant, its variants, tornado and Monte Carlo",
         "monte_carlo_s": "wall time of the Monte Carlo",
+        "plant_options_s": "wall time of the options crossed for the front (plant.options_front, options.csv)",
         "msp_usd_per_kg": "minimum selling price of rTPA (net present value zero at the internal rate of return)",
         "msp_capital_usd_per_kg": "what of the MSP pays for capital, its return and taxes",
         "msp_<item>_usd_per_kg": "one stream's or utility's part of the MSP per kg rTPA (a feed, a waste, a "

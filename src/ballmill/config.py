@@ -505,6 +505,9 @@ class SodiumConfig:
     concentrating_effects: int = rng(3, 1, 8, doc="bpmed: effects that evaporate the solutions' water on steam")
 
 
+OPTION_GROUPS = ("evaporation", "heat", "sodium", "naoh_dosing")  # the plant's options a front can cross
+
+
 @dataclass
 class PlantConfig:
     """The plant around the mill, on BioSTEAM: feed preparation, the units' design choices, the
@@ -620,10 +623,17 @@ class PlantConfig:
                "solves for (what_it_takes.csv): parameters of data/plant_uncertainty.csv; [] for none"})
     what_it_takes_span: float = rng(10.0, 1.0, 100.0,
                                     doc="each lever is searched between its base over and times this (within its range)")
+    options_front: list[str] = field(default_factory=list, metadata={
+        "doc": "option groups crossed around the same mill (any of evaporation, heat, sodium, naoh_dosing; each once): "
+               "every combination's MSP and footprint and their Pareto front (options.csv); [] for none"})
     monte_carlo_draws: int = rng(2000, 0, 100_000, doc="draws of the Monte Carlo (0: none)")
     seed: int = rng(0, 0, None, doc="seed of the Monte Carlo draws")
 
     def __post_init__(self):
+        unknown = [g for g in self.options_front if g not in OPTION_GROUPS]
+        if unknown or len(set(self.options_front)) < len(self.options_front):
+            raise ConfigError(f"plant.options_front={self.options_front}: give each of {list(OPTION_GROUPS)} at most "
+                              "once")
         check_positive_lists(self, "plant", ("construction_fractions",))
         if abs(sum(self.construction_fractions) - 1.0) > 1e-9:
             raise ConfigError(f"plant.construction_fractions={self.construction_fractions} sum to "

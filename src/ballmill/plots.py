@@ -375,6 +375,29 @@ def plot_msp(table: pd.DataFrame, by: str, label: str):
     return fig
 
 
+def plot_options_front(fronts: dict[str, pd.DataFrame], virgin_usd_per_kg: float, virgin_kg_per_kg: float):
+    """MSP against footprint of every option combination (options.csv), one panel per case, the
+    Pareto front drawn through its points, virgin TPA's price and virgin PTA's footprint as lines."""
+    n = len(fronts)
+    cols = min(n, 3)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.6 * rows), squeeze=False)
+    for ax, (label, t) in zip(axes.flat, fronts.items()):
+        front = t[t.on_front].sort_values("gwp_kg_per_kg")
+        ax.scatter(t.gwp_kg_per_kg, t.msp_usd_per_kg, s=10, color="0.6", label="option combination")
+        ax.plot(front.gwp_kg_per_kg, front.msp_usd_per_kg, "o-", color="C3", ms=4, label="Pareto front")
+        ax.axhline(virgin_usd_per_kg, color="k", ls="--", lw=0.8, label="virgin TPA price")
+        ax.axvline(virgin_kg_per_kg, color="k", ls=":", lw=0.8, label="virgin PTA footprint")
+        ax.set_title(label, fontsize=9)
+        ax.set_xlabel("kg CO2e per kg rTPA")
+        ax.set_ylabel("MSP ($/kg rTPA)")
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    axes.flat[0].legend(fontsize=6)
+    fig.tight_layout()
+    return fig
+
+
 def plot_tornado(tornado: pd.DataFrame, base_usd_per_kg: float, rows: int = 20):
     """MSP at each input's low and high end, the others at base (the `rows` largest swings,
     largest on top)."""

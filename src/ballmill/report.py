@@ -28,6 +28,7 @@ from .plots import (
     plot_impact_spectra,
     plot_lab_validation,
     plot_measured_power,
+    plot_options_front,
     plot_parity,
     plot_residuals,
     plot_tornado,
@@ -421,8 +422,47 @@ def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -
                    "which the footprint meets virgin PTA's (empty: not reached between the base over and times "
                    "plant.what_it_takes_span):"), "",
                   tables["what_it_takes"].to_markdown(index=False, floatfmt=".4g"), ""]
+    lines += options_lines(name, ok, out_dir)
     lines += ["Published values beside ours:", "", anchors.to_markdown(index=False), ""]
     return lines
+
+
+OPTION_COLUMNS = ["evaporation", "heat", "sodium", "naoh_dosing"]
+
+
+def best_options(label: str, t: pd.DataFrame) -> pd.DataFrame:
+    """A case's best plants among its option combinations: the cheapest, the cleanest, and the
+    cheapest of those below virgin TPA's price, footprint, and both (where any is)."""
+    picks = {"cheapest": t, "cleanest": t.sort_values("gwp_kg_per_kg").head(1),
+             "cheapest below virgin price": t[t.below_virgin_price],
+             "cheapest below virgin footprint": t[t.below_virgin_footprint],
+             "cheapest below both": t[t.below_virgin_price & t.below_virgin_footprint]}
+    rows = [{"case": label, "best": name, **pick.sort_values("msp_usd_per_kg").iloc[0].to_dict()}
+            for name, pick in picks.items() if len(pick)]
+    options = [c for c in OPTION_COLUMNS if c in t]
+    return pd.DataFrame(rows)[["case", "best", *options, "msp_usd_per_kg", "gwp_kg_per_kg"]]
+
+
+def options_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
+    """Where the jobs crossed the plant's options (options.csv): MSP against footprint per case
+    with its Pareto front, and each case's best plants."""
+    cases = ok.sort_values("plant_fresh_pet_kg_per_h", ascending=False)
+    fronts = {case_label(rec.to_dict()): pd.read_csv(Path(rec.job_dir) / "options.csv")
+              for _, rec in cases.iterrows() if (Path(rec.job_dir) / "options.csv").is_file()}
+    if not fronts:
+        return []
+    first = cases.iloc[0]
+    save_figure(plot_options_front(fronts, first.virgin_tpa_usd_per_kg, first.virgin_tpa_gwp_kg_per_kg),
+                out_dir / f"{name}_options")
+    best = pd.concat([best_options(label, t) for label, t in fronts.items()], ignore_index=True)
+    on_front = pd.concat([t[t.on_front].assign(case=label) for label, t in fronts.items()], ignore_index=True)
+    write_table(best, out_dir / f"{name}_best_plants")
+    write_table(on_front, out_dir / f"{name}_options_front")
+    seconds = ok.plant_options_s.median() if "plant_options_s" in ok else float("nan")
+    return [(f"Options crossed around each case's mill (plant.options_front; {len(next(iter(fronts.values())))} "
+             f"combinations, {seconds:.1f} s a case): MSP against footprint, the Pareto front in red:"), "",
+            f"![options]({name}_options.png)", "", "Each case's best plants:", "",
+            best.to_markdown(index=False, floatfmt=".3f"), ""]
 
 
 def cheapest_mill_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
