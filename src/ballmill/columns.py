@@ -265,6 +265,20 @@ RECORD = {
         "virgin_tpa_usd_per_kg": "virgin TPA's price (data/prices.csv)",
         "virgin_tpa_gwp_kg_per_kg": "virgin TPA's footprint (data/ghg_factors.csv)",
     }),
+    "regional": ("study=regional: one plant for a group of states against a plant each (states.csv, sites.csv)", {
+        "regional_states": "the states (plant.regional.states)",
+        "regional_fresh_pet_kg_per_h": "their PET together",
+        "regional_site": "the cheapest site of the plant for all (a state's centre of population)",
+        "regional_haul_km": "the bales' feed-weighted road distance to it",
+        "regional_haul_usd_per_t_bales": "their haulage per t of bales", "regional_haul_kg_co2e_per_t_bales":
+            "its greenhouse gas per t of bales", "regional_msp_usd_per_kg": "the plant for all's MSP, haulage in",
+        "regional_gwp_kg_per_kg": "its footprint, haulage in",
+        "apart_msp_usd_per_kg": "a plant each: their rTPA-weighted MSP", "apart_gwp_kg_per_kg": "their footprint",
+        "regional_sharing_states": "the states whose plant shared with the nearest larger neighbour is cheaper "
+                                   "than the two apart",
+        "haul_usd_per_t_km": "a truck's cost per tonne-km (data/haulage.csv)",
+        "haul_kg_co2e_per_t_km": "its greenhouse gas per tonne-km", "regional_s": "wall time of the study's plants",
+    }),
     "cheapest mill": (("study=cheapest_mill: the paper's mill and the optimum (design columns prefixed paper_ and "
                        "optimum_ by the surrogate, paper_dem_ and optimum_dem_ as the DEM confirms them)"), {
         "optimiser_trials": "designs the search evaluated", "optimiser_seed": "the search's seed",

@@ -505,6 +505,20 @@ class SodiumConfig:
     concentrating_effects: int = rng(3, 1, 8, doc="bpmed: effects that evaporate the solutions' water on steam")
 
 
+@dataclass
+class RegionalConfig:
+    """study=regional: one plant for a group of states against a plant each, the bales hauled by
+    truck from each state's centre of population (data/haulage.csv, data/population_centres.csv)."""
+
+    states: list[str] = field(default_factory=lambda: ["FL", "GA", "NC", "VA", "MD", "SC", "WV", "DE", "DC"],
+                              metadata={"doc": "the states (codes of data/population_centres.csv), each a candidate "
+                                               "site of the regional plant; two at least"})
+
+    def __post_init__(self):
+        if len(set(self.states)) < 2 or len(set(self.states)) < len(self.states):
+            raise ConfigError(f"plant.regional.states={self.states}: give two or more different state codes")
+
+
 OPTION_GROUPS = ("evaporation", "heat", "sodium", "naoh_dosing")  # the plant's options a front can cross
 
 
@@ -623,6 +637,8 @@ class PlantConfig:
                "solves for (what_it_takes.csv): parameters of data/plant_uncertainty.csv; [] for none"})
     what_it_takes_span: float = rng(10.0, 1.0, 100.0,
                                     doc="each lever is searched between its base over and times this (within its range)")
+    regional: RegionalConfig = field(default_factory=RegionalConfig, metadata={
+        "doc": "study=regional: the states that could share a plant (plant.regional.*)"})
     options_front: list[str] = field(default_factory=list, metadata={
         "doc": "option groups crossed around the same mill (any of evaporation, heat, sodium, naoh_dosing; each once): "
                "every combination's MSP and footprint and their Pareto front (options.csv); [] for none"})
@@ -775,7 +791,7 @@ class StudyConfig:
     name: str = field(default="design", metadata={
         "doc": "the run's name: its folder under outputs/runs or outputs/sweeps"})
     kind: str = field(default="design", metadata={
-        "choices": ("design", "drum", "lab", "yield_calibration", "yield_fit", "plant", "cheapest_mill"),
+        "choices": ("design", "drum", "lab", "yield_calibration", "yield_fit", "plant", "cheapest_mill", "regional"),
         "doc": "the pipeline the run executes (studies.STUDIES)"})
     observations: str | None = field(default=None, metadata={"doc": "observations.csv drawn beside a lab study"})
     experiment: str | None = field(default=None, metadata={

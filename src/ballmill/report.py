@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,7 @@ from .yields import pet_fraction
 SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv",
            "yield_lab_conditions.csv", "cost_correlations.csv", "macrs_7yr.csv", "plant_uncertainty.csv",
            "plant_chemicals.csv", "staffing.csv", "ghg_factors.csv", "egrid2022_states.csv", "published_anchors.csv",
-           "measured_mill_power.csv", "yield_experiments.csv", "mill_rtd.csv"]
+           "measured_mill_power.csv", "yield_experiments.csv", "mill_rtd.csv", "haulage.csv", "population_centres.csv"]
 
 
 def collect(sweep_dir: Path) -> pd.DataFrame:
@@ -465,6 +466,34 @@ def options_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
             best.to_markdown(index=False, floatfmt=".3f"), ""]
 
 
+def regional_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
+    """One plant for the states against a plant each (study=regional): the sites, each state joined
+    to its nearest larger neighbour or not, the figure."""
+    lines = []
+    for _, rec in ok.iterrows():
+        job = Path(rec.job_dir)
+        sites, states = pd.read_csv(job / "sites.csv"), pd.read_csv(job / "states.csv")
+        write_table(sites, out_dir / f"{name}_sites")
+        write_table(states, out_dir / f"{name}_states")
+        shutil.copy(job / "regional.png", out_dir / f"{name}.png")
+        lines += [f"## One plant for {rec.regional_states} against a plant each (BPR {rec.bpr:g})", "",
+                  (f"The plant for all at {rec.regional_site}'s centre of population: MSP {rec.regional_msp_usd_per_kg:.3f} "
+                   f"$/kg rTPA, {rec.regional_gwp_kg_per_kg:.2f} kg CO2e/kg, the bales hauled {rec.regional_haul_km:.0f} "
+                   f"km on average ({rec.regional_haul_usd_per_t_bales:.1f} $ and "
+                   f"{rec.regional_haul_kg_co2e_per_t_bales:.1f} kg CO2e per t of bales at "
+                   f"{rec.haul_usd_per_t_km:.4f} $/t-km and {rec.haul_kg_co2e_per_t_km:.4f} kg CO2e/t-km); a plant "
+                   f"each: {rec.apart_msp_usd_per_kg:.3f} $/kg and {rec.apart_gwp_kg_per_kg:.2f} kg CO2e/kg "
+                   f"(rTPA-weighted); virgin TPA {rec.virgin_tpa_usd_per_kg:.3f} $/kg, "
+                   f"{rec.virgin_tpa_gwp_kg_per_kg:.2f} kg CO2e/kg ({rec.regional_s:.1f} s)."), "",
+                  "The plant for all at each candidate site:", "",
+                  sites[["site", "haul_km", "haul_usd_per_t_bales", "haul_kg_co2e_per_t_bales", "msp_usd_per_kg",
+                         "gwp_kg_per_kg"]].to_markdown(index=False, floatfmt=".3f"), "",
+                  ("Each state's own plant against sharing its nearest larger neighbour's (its bales hauled there; "
+                   "apart: the two plants' rTPA-weighted values):"), "",
+                  states.to_markdown(index=False, floatfmt=".3f"), "", f"![regional]({name}.png)", ""]
+    return lines
+
+
 def cheapest_mill_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
     """Per case: the paper's mill against the cheapest (knobs, residence time, power, annualised
     cost) by the surrogate and by the DEM confirmation; the cost saved; what each knob is worth."""
@@ -534,6 +563,7 @@ SECTIONS = {
     "yield_designs": yield_design_lines,
     "plant": plant_lines,
     "cheapest_mill": cheapest_mill_lines,
+    "regional": regional_lines,
     "measured_power": measured_power_lines,
 }
 
