@@ -402,3 +402,20 @@ def test_hauled_bales_cost_and_emit_their_haul():
     cfg = hauled(PlantConfig(), "prices.csv", 100.0)
     assert cfg.prices_usd_per_t["pet_bale"] == pytest.approx(157.711, rel=1e-5)
     assert cfg.ghg_kg_co2e["pet_bale"] == pytest.approx(0.171576, rel=1e-5)
+
+
+def test_the_eg_price_and_the_conversion_per_pass_as_levers():
+    """The EG price at which the MSP meets virgin TPA's gives it in a plant built at that price;
+    the conversion per pass of the same mill cannot: even all the PET converted in one pass
+    (factor 1 / 0.7487, the setter caps it at 1) leaves the MSP and footprint above virgin's."""
+    p = own_plant("eg_and_conversion")
+    t = break_even(p, ["price.eg", "yield.conversion"], 10.0).set_index("lever")
+    eg = t.loc["price.eg", "msp_break_even"]
+    assert np.isnan(t.loc["price.eg", "gwp_break_even"])  # the EG credit's carbon is its factor's, not its price's
+    at_eg = own_plant("at_eg", replace(PlantConfig(), prices_usd_per_t={"eg": eg}))
+    assert at_eg.evaluate()["msp_usd_per_kg"] == pytest.approx(1.143, rel=1e-6)
+    assert t.loc["yield.conversion", ["msp_break_even", "gwp_break_even"]].isna().all()
+    full = own_plant("full_conversion")
+    full.ps.units["R201"].conversion = 1.0
+    at_full = full.evaluate()
+    assert at_full["msp_usd_per_kg"] > 1.143 and at_full["gwp_kg_per_kg"] > 1.60

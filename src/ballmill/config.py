@@ -631,10 +631,11 @@ class PlantConfig:
                "+plant.ghg_kg_co2e.electricity_us=0.1"})
     what_it_takes: list[str] = field(default_factory=lambda: [
         "price.naoh", "price.pet_bale", "price.steam_factor", "economics.electricity_usd_per_kwh",
-        "plant.operator_wage_usd_per_yr", "plant.dissolution_water_kg_per_kg_na2tpa", "ghg.naoh", "ghg.steam",
-        "ghg.electricity_us", "ghg.pet_bale"], metadata={
+        "plant.operator_wage_usd_per_yr", "plant.dissolution_water_kg_per_kg_na2tpa", "price.eg", "yield.conversion",
+        "ghg.naoh", "ghg.steam", "ghg.electricity_us", "ghg.pet_bale"], metadata={
         "doc": "levers whose break-even values (MSP = virgin TPA's price, footprint = virgin PTA's) the plant study "
-               "solves for (what_it_takes.csv): parameters of data/plant_uncertainty.csv; [] for none"})
+               "solves for (what_it_takes.csv): parameters of data/plant_uncertainty.csv (yield.conversion: a "
+               "factor on the conversion per pass of the same mill, at most 1); [] for none"})
     what_it_takes_span: float = rng(10.0, 1.0, 100.0,
                                     doc="each lever is searched between its base over and times this (within its range)")
     regional: RegionalConfig = field(default_factory=RegionalConfig, metadata={
