@@ -419,3 +419,24 @@ def test_the_eg_price_and_the_conversion_per_pass_as_levers():
     full.ps.units["R201"].conversion = 1.0
     at_full = full.evaluate()
     assert at_full["msp_usd_per_kg"] > 1.143 and at_full["gwp_kg_per_kg"] > 1.60
+
+
+def test_the_feed_at_which_a_plant_meets_virgin_tpas_price(tmp_path):
+    """study=regional at BPR 20: the fresh PET feed whose plant (Bond/Rowland mill, US grid, no
+    haul) sells rTPA at virgin TPA's 1.143 $/kg lies between the two states' feeds whose own
+    plants bracket that price; no feed from 100 to 50,000 kg/h meets PTA's 1.60 kg CO2e/kg."""
+    from ballmill.scenario import compose, load
+    from ballmill.studies.regional import plan_regional
+
+    s = load(compose("config", ["study=regional", "scaleup.pet_feed_kg_per_h=null", "scaleup.region=FL",
+                                "scaleup.naoh_feed_kg_per_h=null", "scaleup.bpr=20", "plant.monte_carlo_draws=0"]))
+    record = plan_regional(s).execute(tmp_path)
+    scales = pd.read_csv(tmp_path / "scale.csv").set_index("indicator")
+    feed = record["break_even_fresh_pet_kg_per_h"]
+    assert scales.at["msp_usd_per_kg", "at_break_even"] == pytest.approx(1.143, rel=1e-6)
+    states = pd.read_csv(tmp_path / "states.csv").sort_values("fresh_pet_kg_per_h")
+    dearer = states[states.own_msp_usd_per_kg > 1.143].fresh_pet_kg_per_h.max()
+    cheaper = states[states.own_msp_usd_per_kg < 1.143].fresh_pet_kg_per_h.min()
+    assert dearer < feed < cheaper  # Maryland's 1,918 kg/h and Virginia's 2,703
+    assert math.isnan(record["break_even_gwp_fresh_pet_kg_per_h"])
+    assert (scales.loc["gwp_kg_per_kg", ["at_low", "at_high"]] > 1.60).all()

@@ -265,7 +265,8 @@ RECORD = {
         "virgin_tpa_usd_per_kg": "virgin TPA's price (data/prices.csv)",
         "virgin_tpa_gwp_kg_per_kg": "virgin TPA's footprint (data/ghg_factors.csv)",
     }),
-    "regional": ("study=regional: one plant for a group of states against a plant each (states.csv, sites.csv)", {
+    "regional": (("study=regional: one plant for a group of states against a plant each (states.csv, sites.csv, "
+                  "scale.csv)"), {
         "regional_states": "the states (plant.regional.states)",
         "regional_fresh_pet_kg_per_h": "their PET together",
         "regional_site": "the cheapest site of the plant for all (a state's centre of population)",
@@ -274,6 +275,9 @@ RECORD = {
             "its greenhouse gas per t of bales", "regional_msp_usd_per_kg": "the plant for all's MSP, haulage in",
         "regional_gwp_kg_per_kg": "its footprint, haulage in",
         "apart_msp_usd_per_kg": "a plant each: their rTPA-weighted MSP", "apart_gwp_kg_per_kg": "their footprint",
+        "break_even_fresh_pet_kg_per_h": "the fresh PET feed at which one plant (US grid, no haul) meets virgin "
+                                         "TPA's price (scale.csv; NaN: no feed in plant.regional.scale_fresh_pet_kg_per_h)",
+        "break_even_gwp_fresh_pet_kg_per_h": "the one at which it meets virgin PTA's footprint",
         "regional_sharing_states": "the states whose plant shared with the nearest larger neighbour is cheaper "
                                    "than the two apart",
         "haul_usd_per_t_km": "a truck's cost per tonne-km (data/haulage.csv)",

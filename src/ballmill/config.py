@@ -513,10 +513,14 @@ class RegionalConfig:
     states: list[str] = field(default_factory=lambda: ["FL", "GA", "NC", "VA", "MD", "SC", "WV", "DE", "DC"],
                               metadata={"doc": "the states (codes of data/population_centres.csv), each a candidate "
                                                "site of the regional plant; two at least"})
+    scale_fresh_pet_kg_per_h: list[float] = field(default_factory=lambda: [100.0, 50000.0], metadata={
+        "doc": "[low, high] fresh PET feeds (kg/h, within [10, 1e6]) searched for the one at which a plant meets "
+               "virgin TPA's price and PTA's footprint (scale.csv)"})
 
     def __post_init__(self):
         if len(set(self.states)) < 2 or len(set(self.states)) < len(self.states):
             raise ConfigError(f"plant.regional.states={self.states}: give two or more different state codes")
+        check_interval("plant.regional.scale_fresh_pet_kg_per_h", self.scale_fresh_pet_kg_per_h, 10.0, 1e6)
 
 
 OPTION_GROUPS = ("evaporation", "heat", "sodium", "naoh_dosing")  # the plant's options a front can cross

@@ -473,6 +473,8 @@ def regional_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path
     for _, rec in ok.iterrows():
         job = Path(rec.job_dir)
         sites, states = pd.read_csv(job / "sites.csv"), pd.read_csv(job / "states.csv")
+        scales = pd.read_csv(job / "scale.csv")
+        write_table(scales, out_dir / f"{name}_scale")
         write_table(sites, out_dir / f"{name}_sites")
         write_table(states, out_dir / f"{name}_states")
         shutil.copy(job / "regional.png", out_dir / f"{name}.png")
@@ -485,6 +487,10 @@ def regional_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path
                    f"each: {rec.apart_msp_usd_per_kg:.3f} $/kg and {rec.apart_gwp_kg_per_kg:.2f} kg CO2e/kg "
                    f"(rTPA-weighted); virgin TPA {rec.virgin_tpa_usd_per_kg:.3f} $/kg, "
                    f"{rec.virgin_tpa_gwp_kg_per_kg:.2f} kg CO2e/kg ({rec.regional_s:.1f} s)."), "",
+                  (f"Scale: one plant (US grid, no haul) meets virgin TPA's price at "
+                   f"{rec.break_even_fresh_pet_kg_per_h:,.0f} kg/h of fresh PET (NaN: at no feed searched) and virgin "
+                   f"PTA's footprint at {rec.break_even_gwp_fresh_pet_kg_per_h:,.0f} kg/h:"), "",
+                  scales.to_markdown(index=False, floatfmt=".4g"), "",
                   "The plant for all at each candidate site:", "",
                   sites[["site", "haul_km", "haul_usd_per_t_bales", "haul_kg_co2e_per_t_bales", "msp_usd_per_kg",
                          "gwp_kg_per_kg"]].to_markdown(index=False, floatfmt=".3f"), "",
