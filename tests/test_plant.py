@@ -440,3 +440,35 @@ def test_the_feed_at_which_a_plant_meets_virgin_tpas_price(tmp_path):
     assert dearer < feed < cheaper  # Maryland's 1,918 kg/h and Virginia's 2,703
     assert math.isnan(record["break_even_gwp_fresh_pet_kg_per_h"])
     assert (scales.loc["gwp_kg_per_kg", ["at_low", "at_high"]] > 1.60).all()
+
+
+def test_reused_condensate_dissolves_the_salt_and_only_the_surplus_is_treated():
+    """Fresh water tops the condensate's water up to 8 kg per kg Na2TPA (none when the condensate
+    suffices); treatment is charged 0.3676 $/kg on the COD of the surplus condensate and the
+    column's water, EG's 2.5 mol O2 per mol: 2.5 x 31.998 / 62.068 = 1.28883 kg/kg; the EG the
+    condensate brings back leaves as product instead."""
+    base = own_plant("no_reuse")
+    p = own_plant("reuse", replace(PlantConfig(), condensate_reuse=True))
+    s = p.ps.streams
+    na2tpa = p.ps.units["R201"].outs[0].imass["Na2TPA"]
+    assert s["dissolution_water"].F_mass + s["reused_condensate"].imass["Water"] == pytest.approx(8.0 * na2tpa, rel=1e-6)
+    assert s["wash_water"].F_mass == pytest.approx(base.ps.streams["wash_water"].F_mass, rel=1e-6)  # the wash stays fresh
+    eg = s["surplus_condensate"].imass["EthyleneGlycol"] + s["column_water"].imass["EthyleneGlycol"]
+    treated = s["treated_water"]
+    assert -treated.price * treated.F_mass == pytest.approx(0.3676 * 1.28883 * eg, rel=1e-4)
+    assert s["EG"].F_mass > base.ps.streams["EG"].F_mass + 0.5 * s["reused_condensate"].imass["EthyleneGlycol"]
+
+
+def test_the_heat_of_neutralisation_warms_the_liquor_by_55_8_kj_per_mol_of_naoh():
+    """CODATA: H+ + OH- -> H2O releases 55.815 kJ/mol; the TPA salt's proton transfer is taken as
+    none.  The acidifier's outlet carries that heat (same flows as without it, kJ/h) and the
+    plant buys less steam."""
+    base = own_plant("no_neutralisation")
+    p = own_plant("neutralisation", replace(PlantConfig(), neutralisation_heat=True))
+    acidifier = p.ps.units["R301"]
+    heat_kw = 55.815 * acidifier.ins[0].imol["NaOH"] / 3.6  # kmol/h x kJ/mol -> kW
+    assert acidifier.heat_released_kw == pytest.approx(heat_kw, rel=1e-9)
+    warmed = acidifier.outs[0].H - base.ps.units["R301"].outs[0].H
+    assert warmed == pytest.approx(heat_kw * 3600.0, rel=1e-3)
+    steam = [sum(h.duty for h in q.ps.system.heat_utilities if h.duty > 0) / 3600.0 for q in (base, p)]
+    assert 0.0 < steam[0] - steam[1] < heat_kw

@@ -558,6 +558,12 @@ class PlantConfig:
     pet_cake_moisture: float = rng(0.3, 0.0, 0.9, doc="water in the unreacted-PET cake (mass fraction)")
     h2so4_to_stoichiometric: float = rng(1.02, 1.0, 2.0,
                                          doc="H2SO4 dosed / the acid that neutralises the Na2TPA and the NaOH left")
+    condensate_reuse: bool = field(default=False, metadata={
+        "doc": "the evaporator's condensate (water with the EG it carries) dissolves the Na2TPA, fresh water topping "
+               "it up, its surplus treated; the TPA cake's wash stays fresh water (the EG would stay in the rTPA)"})
+    neutralisation_heat: bool = field(default=False, metadata={
+        "doc": "the acidifier's heat of neutralisation (data/plant_chemicals.csv) warms the liquor it sends on (less "
+               "steam in the evaporator), or is left out (the acidifier's outlet at its feeds' temperature)"})
     tpa_recovery: float = rng(0.98, 0.5, 1.0, doc="share of the TPA the filter keeps")
     tpa_cake_moisture: float = rng(0.2, 0.03, 0.6, doc="water in the washed TPA cake (mass fraction)")
     wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, 20.0, doc="wash water on the TPA cake")

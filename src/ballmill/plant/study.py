@@ -84,6 +84,8 @@ CONFIG_VARIANTS = {
     "steam from an electric boiler (plant/heat=electric_boiler)": {"heat": HeatConfig(kind="electric_boiler")},
     "steam from the sorted-out plastics (plant/heat=residue_boiler)": {"heat": HeatConfig(kind="residue_boiler")},
     "Na2SO4 split back to NaOH and H2SO4 (plant/sodium=bpmed)": {"sodium": SodiumConfig(kind="bpmed")},
+    "the evaporator's condensate dissolving the Na2TPA (plant.condensate_reuse)": {"condensate_reuse": True},
+    "the acidifier's heat of neutralisation into the liquor (plant.neutralisation_heat)": {"neutralisation_heat": True},
 }
 
 
