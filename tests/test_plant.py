@@ -14,7 +14,10 @@ import pytest
 from ballmill.config import EconomicsConfig, EvaporationConfig, HeatConfig, PlantConfig, SodiumConfig
 from ballmill.plant import uncertainty
 from ballmill.plant.correlations import price
+from ballmill.plant import haulage
 from ballmill.plant.model import plant
+from ballmill.plant.regional import hauled
+from ballmill.plant.options import options_table, pareto_front
 from ballmill.plant.study import variants
 from ballmill.plant.system import MillSpec, fresh_pet_kg_per_h
 from ballmill.plant.what_it_takes import break_even
@@ -349,3 +352,123 @@ def test_landfilled_salt_pays_the_tip_fee_and_the_landfills_factor():
     record = p.record(p.evaluate()["msp_usd_per_kg"])
     assert record["msp_landfilled_salt_usd_per_kg"] == pytest.approx(salt.F_mass * 0.05956 / rtpa, rel=1e-9)
     assert record["gwp_landfilled_salt_kg_per_kg"] == pytest.approx(salt.F_mass * 0.07 / rtpa, rel=1e-9)
+
+
+def test_the_pareto_front_keeps_the_points_nothing_beats_in_both():
+    """(cost, footprint): a (1, 5), b (2, 3), c (3, 1) trade one for the other: on the front;
+    d (2, 4) is beaten by b (2, 3: as cheap, cleaner); e (4, 4) by b; f (3, 1) ties c exactly:
+    neither beats the other, both stay; g (1, 6) is beaten by a (as cheap, cleaner)."""
+    cost = [1, 2, 3, 2, 4, 3, 1]
+    footprint = [5, 3, 1, 4, 4, 1, 6]
+    assert pareto_front(cost, footprint).tolist() == [True, True, True, False, False, True, False]
+
+
+def test_each_option_combination_is_the_plant_with_those_options(built):
+    """The combination that takes one option alone is that option's variant row; the front holds
+    the cheapest and the cleanest combination."""
+    table = options_table(built, ["evaporation", "heat", "sodium", "naoh_dosing"])
+    assert len(table) == 2 * 3 * 3 * 2
+    rows = variants(built).set_index("variant")
+    one = {"evaporation by vapour recompression (plant/evaporation=mvr)": ("mvr", "bought_steam", "salt", "whole_feed"),
+           "NaOH dosed only on the PET that converts": ("multi_effect", "bought_steam", "salt", "converting_pet"),
+           "Na2SO4 split back to NaOH and H2SO4 (plant/sodium=bpmed)": ("multi_effect", "bought_steam", "bpmed",
+                                                                        "whole_feed")}
+    for variant, options in one.items():
+        row = table.set_index(["evaporation", "heat", "sodium", "naoh_dosing"]).loc[options]
+        assert row.msp_usd_per_kg == pytest.approx(rows.at[variant, "msp_usd_per_kg"], rel=1e-9), variant
+        assert row.gwp_kg_per_kg == pytest.approx(rows.at[variant, "gwp_kg_per_kg"], rel=1e-9), variant
+    assert table.on_front[table.msp_usd_per_kg.idxmin()] and table.on_front[table.gwp_kg_per_kg.idxmin()]
+    assert (table.below_virgin_price == (table.msp_usd_per_kg < 1.143)).all()  # data/prices.csv: tpa 1143 $/t
+
+
+def test_a_truck_costs_and_emits_per_tonne_km_what_its_sources_give():
+    """ATRI 2022: 2.251 $ per truck-mile over 18.14 t of bales = 2.251 / 1.609344 / 18.14 = 0.077106 $/t-km;
+    EPA: 0.169 kg CO2e per short ton-mile / (0.90718474 t x 1.609344 km) = 0.115756 kg/t-km."""
+    assert haulage.usd_per_t_km() == pytest.approx(0.077106, rel=1e-5)
+    assert haulage.kg_co2e_per_t_km() == pytest.approx(0.115756, rel=1e-5)
+
+
+def test_road_distance_is_the_great_circle_times_the_circuity():
+    """DC (38.910168, -77.013993) to MD (39.136636, -76.802227): 0.226468 deg of latitude = 25.182 km
+    north, 0.211766 deg of longitude x cos(39.0234 deg) = 18.294 km east: 31.126 km on the sphere
+    (flat over so short a span), x 1.2 = 37.35 km of road."""
+    assert haulage.road_km("DC", "MD") == pytest.approx(37.35, rel=2e-4)
+    assert haulage.great_circle_km(0.0, 0.0, 0.0, 90.0) == pytest.approx(6371.0088 * math.pi / 2, rel=1e-12)
+
+
+def test_hauled_bales_cost_and_emit_their_haul():
+    """100 km of haul: the bale (150 $/t, 0.16 kg CO2e/kg) costs 150 + 100 x 0.077106 = 157.711 $/t
+    and emits 0.16 + 100 x 0.115756 / 1000 = 0.171576 kg CO2e/kg."""
+    cfg = hauled(PlantConfig(), "prices.csv", 100.0)
+    assert cfg.prices_usd_per_t["pet_bale"] == pytest.approx(157.711, rel=1e-5)
+    assert cfg.ghg_kg_co2e["pet_bale"] == pytest.approx(0.171576, rel=1e-5)
+
+
+def test_the_eg_price_and_the_conversion_per_pass_as_levers():
+    """The EG price at which the MSP meets virgin TPA's gives it in a plant built at that price;
+    the conversion per pass of the same mill cannot: even all the PET converted in one pass
+    (factor 1 / 0.7487, the setter caps it at 1) leaves the MSP and footprint above virgin's."""
+    p = own_plant("eg_and_conversion")
+    t = break_even(p, ["price.eg", "yield.conversion"], 10.0).set_index("lever")
+    eg = t.loc["price.eg", "msp_break_even"]
+    assert np.isnan(t.loc["price.eg", "gwp_break_even"])  # the EG credit's carbon is its factor's, not its price's
+    at_eg = own_plant("at_eg", replace(PlantConfig(), prices_usd_per_t={"eg": eg}))
+    assert at_eg.evaluate()["msp_usd_per_kg"] == pytest.approx(1.143, rel=1e-6)
+    assert t.loc["yield.conversion", ["msp_break_even", "gwp_break_even"]].isna().all()
+    full = own_plant("full_conversion")
+    full.ps.units["R201"].conversion = 1.0
+    at_full = full.evaluate()
+    assert at_full["msp_usd_per_kg"] > 1.143 and at_full["gwp_kg_per_kg"] > 1.60
+
+
+def test_the_feed_at_which_a_plant_meets_virgin_tpas_price(tmp_path):
+    """study=regional at BPR 20: the fresh PET feed whose plant (Bond/Rowland mill, US grid, no
+    haul) sells rTPA at virgin TPA's 1.143 $/kg lies between the two states' feeds whose own
+    plants bracket that price; no feed from 100 to 50,000 kg/h meets PTA's 1.60 kg CO2e/kg."""
+    from ballmill.scenario import compose, load
+    from ballmill.studies.regional import plan_regional
+
+    s = load(compose("config", ["study=regional", "scaleup.pet_feed_kg_per_h=null", "scaleup.region=FL",
+                                "scaleup.naoh_feed_kg_per_h=null", "scaleup.bpr=20", "plant.monte_carlo_draws=0"]))
+    record = plan_regional(s).execute(tmp_path)
+    scales = pd.read_csv(tmp_path / "scale.csv").set_index("indicator")
+    feed = record["break_even_fresh_pet_kg_per_h"]
+    assert scales.at["msp_usd_per_kg", "at_break_even"] == pytest.approx(1.143, rel=1e-6)
+    states = pd.read_csv(tmp_path / "states.csv").sort_values("fresh_pet_kg_per_h")
+    dearer = states[states.own_msp_usd_per_kg > 1.143].fresh_pet_kg_per_h.max()
+    cheaper = states[states.own_msp_usd_per_kg < 1.143].fresh_pet_kg_per_h.min()
+    assert dearer < feed < cheaper  # Maryland's 1,918 kg/h and Virginia's 2,703
+    assert math.isnan(record["break_even_gwp_fresh_pet_kg_per_h"])
+    assert (scales.loc["gwp_kg_per_kg", ["at_low", "at_high"]] > 1.60).all()
+
+
+def test_reused_condensate_dissolves_the_salt_and_only_the_surplus_is_treated():
+    """Fresh water tops the condensate's water up to 8 kg per kg Na2TPA (none when the condensate
+    suffices); treatment is charged 0.3676 $/kg on the COD of the surplus condensate and the
+    column's water, EG's 2.5 mol O2 per mol: 2.5 x 31.998 / 62.068 = 1.28883 kg/kg; the EG the
+    condensate brings back leaves as product instead."""
+    base = own_plant("no_reuse")
+    p = own_plant("reuse", replace(PlantConfig(), condensate_reuse=True))
+    s = p.ps.streams
+    na2tpa = p.ps.units["R201"].outs[0].imass["Na2TPA"]
+    assert s["dissolution_water"].F_mass + s["reused_condensate"].imass["Water"] == pytest.approx(8.0 * na2tpa, rel=1e-6)
+    assert s["wash_water"].F_mass == pytest.approx(base.ps.streams["wash_water"].F_mass, rel=1e-6)  # the wash stays fresh
+    eg = s["surplus_condensate"].imass["EthyleneGlycol"] + s["column_water"].imass["EthyleneGlycol"]
+    treated = s["treated_water"]
+    assert -treated.price * treated.F_mass == pytest.approx(0.3676 * 1.28883 * eg, rel=1e-4)
+    assert s["EG"].F_mass > base.ps.streams["EG"].F_mass + 0.5 * s["reused_condensate"].imass["EthyleneGlycol"]
+
+
+def test_the_heat_of_neutralisation_warms_the_liquor_by_55_8_kj_per_mol_of_naoh():
+    """CODATA: H+ + OH- -> H2O releases 55.815 kJ/mol; the TPA salt's proton transfer is taken as
+    none.  The acidifier's outlet carries that heat (same flows as without it, kJ/h) and the
+    plant buys less steam."""
+    base = own_plant("no_neutralisation")
+    p = own_plant("neutralisation", replace(PlantConfig(), neutralisation_heat=True))
+    acidifier = p.ps.units["R301"]
+    heat_kw = 55.815 * acidifier.ins[0].imol["NaOH"] / 3.6  # kmol/h x kJ/mol -> kW
+    assert acidifier.heat_released_kw == pytest.approx(heat_kw, rel=1e-9)
+    warmed = acidifier.outs[0].H - base.ps.units["R301"].outs[0].H
+    assert warmed == pytest.approx(heat_kw * 3600.0, rel=1e-3)
+    steam = [sum(h.duty for h in q.ps.system.heat_utilities if h.duty > 0) / 3600.0 for q in (base, p)]
+    assert 0.0 < steam[0] - steam[1] < heat_kw

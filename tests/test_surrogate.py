@@ -177,6 +177,18 @@ def test_a_design_by_the_surrogate_is_marked_and_carries_its_uncertainty(tmp_pat
     assert rec["yield_percent"] == pytest.approx(6.38 * 19 - 46.35)
 
 
+def test_a_design_outside_the_runs_is_refused_naming_the_way_out_or_sent_to_the_dem(tmp_path):
+    """DC's mill (0.35 of critical with a diameter of 7 balls) lies outside the hull: refused by
+    default, the message naming dem.outside=full; with it, the DEM runs that mill and says so."""
+    dc = ["dem=surrogate", "scaleup.region=DC", "scaleup.pet_feed_kg_per_h=null", "sim=test"]
+    with pytest.raises(ConfigError, match=r"outside the hull .* use dem=full, dem.outside=full"):
+        run_plan(tmp_path, dc)
+    rec = run_plan(tmp_path, [*dc, "dem.outside=full"])
+    assert rec["dem_source"] == "full" and rec["dem_outside_surrogate"] and rec["dem_power_w"] > 0
+    inside = run_plan(tmp_path, ["dem=surrogate", "dem.outside=full"])  # BPR 19 at 1000 kg/h: inside
+    assert inside["dem_source"] == "surrogate"
+
+
 def test_the_cheapest_mill_is_no_dearer_than_the_papers_and_knobs_are_ranked(tmp_path):
     """Each knob's worth is the optimum's cost rise with that knob back at the paper's value:
     every one a rise, none above the paper's whole extra cost (13.3 %; the four together 11.9 %),

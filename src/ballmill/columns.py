@@ -109,6 +109,8 @@ RECORD = {
         "dem_key": "hash of what determines the DEM run: its folder under outputs/cache/dem/",
         "dem_dir": "the DEM's cache folder (loads, energy, collisions, trajectories)",
         "dem_source": "full (the DEM) or surrogate",
+        "dem_outside_surrogate": "dem=surrogate: the design lay outside the surrogate's training runs and "
+                                 "dem.outside=full ran the DEM for it",
         "dem_table": "the surrogate's training table (dem=surrogate)",
         "dem_balls": "balls simulated", "dem_ball_mass_kg": "mass of the balls (surrogate)",
         "dem_speed_rpm": "drum speed", "dem_critical_speed_rpm": "critical speed of the drum",
@@ -245,6 +247,7 @@ RECORD = {
                                                                       "(design_warnings.txt)",
         "plant_s": "wall time of the plant, its variants, tornado and Monte Carlo",
         "monte_carlo_s": "wall time of the Monte Carlo",
+        "plant_options_s": "wall time of the options crossed for the front (plant.options_front, options.csv)",
         "msp_usd_per_kg": "minimum selling price of rTPA (net present value zero at the internal rate of return)",
         "msp_capital_usd_per_kg": "what of the MSP pays for capital, its return and taxes",
         "msp_<item>_usd_per_kg": "one stream's or utility's part of the MSP per kg rTPA (a feed, a waste, a "
@@ -261,6 +264,24 @@ RECORD = {
                                              "theirs)",
         "virgin_tpa_usd_per_kg": "virgin TPA's price (data/prices.csv)",
         "virgin_tpa_gwp_kg_per_kg": "virgin TPA's footprint (data/ghg_factors.csv)",
+    }),
+    "regional": (("study=regional: one plant for a group of states against a plant each (states.csv, sites.csv, "
+                  "scale.csv)"), {
+        "regional_states": "the states (plant.regional.states)",
+        "regional_fresh_pet_kg_per_h": "their PET together",
+        "regional_site": "the cheapest site of the plant for all (a state's centre of population)",
+        "regional_haul_km": "the bales' feed-weighted road distance to it",
+        "regional_haul_usd_per_t_bales": "their haulage per t of bales", "regional_haul_kg_co2e_per_t_bales":
+            "its greenhouse gas per t of bales", "regional_msp_usd_per_kg": "the plant for all's MSP, haulage in",
+        "regional_gwp_kg_per_kg": "its footprint, haulage in",
+        "apart_msp_usd_per_kg": "a plant each: their rTPA-weighted MSP", "apart_gwp_kg_per_kg": "their footprint",
+        "break_even_fresh_pet_kg_per_h": "the fresh PET feed at which one plant (US grid, no haul) meets virgin "
+                                         "TPA's price (scale.csv; NaN: no feed in plant.regional.scale_fresh_pet_kg_per_h)",
+        "break_even_gwp_fresh_pet_kg_per_h": "the one at which it meets virgin PTA's footprint",
+        "regional_sharing_states": "the states whose plant shared with the nearest larger neighbour is cheaper "
+                                   "than the two apart",
+        "haul_usd_per_t_km": "a truck's cost per tonne-km (data/haulage.csv)",
+        "haul_kg_co2e_per_t_km": "its greenhouse gas per tonne-km", "regional_s": "wall time of the study's plants",
     }),
     "cheapest mill": (("study=cheapest_mill: the paper's mill and the optimum (design columns prefixed paper_ and "
                        "optimum_ by the surrogate, paper_dem_ and optimum_dem_ as the DEM confirms them)"), {

@@ -506,6 +506,27 @@ class SodiumConfig:
 
 
 @dataclass
+class RegionalConfig:
+    """study=regional: one plant for a group of states against a plant each, the bales hauled by
+    truck from each state's centre of population (data/haulage.csv, data/population_centres.csv)."""
+
+    states: list[str] = field(default_factory=lambda: ["FL", "GA", "NC", "VA", "MD", "SC", "WV", "DE", "DC"],
+                              metadata={"doc": "the states (codes of data/population_centres.csv), each a candidate "
+                                               "site of the regional plant; two at least"})
+    scale_fresh_pet_kg_per_h: list[float] = field(default_factory=lambda: [100.0, 50000.0], metadata={
+        "doc": "[low, high] fresh PET feeds (kg/h, within [10, 1e6]) searched for the one at which a plant meets "
+               "virgin TPA's price and PTA's footprint (scale.csv)"})
+
+    def __post_init__(self):
+        if len(set(self.states)) < 2 or len(set(self.states)) < len(self.states):
+            raise ConfigError(f"plant.regional.states={self.states}: give two or more different state codes")
+        check_interval("plant.regional.scale_fresh_pet_kg_per_h", self.scale_fresh_pet_kg_per_h, 10.0, 1e6)
+
+
+OPTION_GROUPS = ("evaporation", "heat", "sodium", "naoh_dosing")  # the plant's options a front can cross
+
+
+@dataclass
 class PlantConfig:
     """The plant around the mill, on BioSTEAM: feed preparation, the units' design choices, the
     cost year, NREL's TEA convention, the staffing rule and the Monte Carlo (defaults and their
@@ -537,6 +558,12 @@ class PlantConfig:
     pet_cake_moisture: float = rng(0.3, 0.0, 0.9, doc="water in the unreacted-PET cake (mass fraction)")
     h2so4_to_stoichiometric: float = rng(1.02, 1.0, 2.0,
                                          doc="H2SO4 dosed / the acid that neutralises the Na2TPA and the NaOH left")
+    condensate_reuse: bool = field(default=False, metadata={
+        "doc": "the evaporator's condensate (water with the EG it carries) dissolves the Na2TPA, fresh water topping "
+               "it up, its surplus treated; the TPA cake's wash stays fresh water (the EG would stay in the rTPA)"})
+    neutralisation_heat: bool = field(default=False, metadata={
+        "doc": "the acidifier's heat of neutralisation (data/plant_chemicals.csv) warms the liquor it sends on (less "
+               "steam in the evaporator), or is left out (the acidifier's outlet at its feeds' temperature)"})
     tpa_recovery: float = rng(0.98, 0.5, 1.0, doc="share of the TPA the filter keeps")
     tpa_cake_moisture: float = rng(0.2, 0.03, 0.6, doc="water in the washed TPA cake (mass fraction)")
     wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, 20.0, doc="wash water on the TPA cake")
@@ -614,16 +641,26 @@ class PlantConfig:
                "+plant.ghg_kg_co2e.electricity_us=0.1"})
     what_it_takes: list[str] = field(default_factory=lambda: [
         "price.naoh", "price.pet_bale", "price.steam_factor", "economics.electricity_usd_per_kwh",
-        "plant.operator_wage_usd_per_yr", "plant.dissolution_water_kg_per_kg_na2tpa", "ghg.naoh", "ghg.steam",
-        "ghg.electricity_us", "ghg.pet_bale"], metadata={
+        "plant.operator_wage_usd_per_yr", "plant.dissolution_water_kg_per_kg_na2tpa", "price.eg", "yield.conversion",
+        "ghg.naoh", "ghg.steam", "ghg.electricity_us", "ghg.pet_bale"], metadata={
         "doc": "levers whose break-even values (MSP = virgin TPA's price, footprint = virgin PTA's) the plant study "
-               "solves for (what_it_takes.csv): parameters of data/plant_uncertainty.csv; [] for none"})
+               "solves for (what_it_takes.csv): parameters of data/plant_uncertainty.csv (yield.conversion: a "
+               "factor on the conversion per pass of the same mill, at most 1); [] for none"})
     what_it_takes_span: float = rng(10.0, 1.0, 100.0,
                                     doc="each lever is searched between its base over and times this (within its range)")
+    regional: RegionalConfig = field(default_factory=RegionalConfig, metadata={
+        "doc": "study=regional: the states that could share a plant (plant.regional.*)"})
+    options_front: list[str] = field(default_factory=list, metadata={
+        "doc": "option groups crossed around the same mill (any of evaporation, heat, sodium, naoh_dosing; each once): "
+               "every combination's MSP and footprint and their Pareto front (options.csv); [] for none"})
     monte_carlo_draws: int = rng(2000, 0, 100_000, doc="draws of the Monte Carlo (0: none)")
     seed: int = rng(0, 0, None, doc="seed of the Monte Carlo draws")
 
     def __post_init__(self):
+        unknown = [g for g in self.options_front if g not in OPTION_GROUPS]
+        if unknown or len(set(self.options_front)) < len(self.options_front):
+            raise ConfigError(f"plant.options_front={self.options_front}: give each of {list(OPTION_GROUPS)} at most "
+                              "once")
         check_positive_lists(self, "plant", ("construction_fractions",))
         if abs(sum(self.construction_fractions) - 1.0) > 1e-9:
             raise ConfigError(f"plant.construction_fractions={self.construction_fractions} sum to "
@@ -653,7 +690,11 @@ class DemConfig:
     table: str = field(default="surrogate_training.csv", metadata={
         "doc": "the surrogate's training table: a data/ table or a path (from `ballmill surrogate`)"})
     allow_extrapolation: bool = field(default=False, metadata={
-        "doc": "evaluate designs outside the hull of the training runs (refused otherwise)"})
+        "doc": "evaluate designs outside the hull of the training runs by the surrogate anyway"})
+    outside: str = field(default="refuse", metadata={
+        "choices": ("refuse", "full"),
+        "doc": "dem=surrogate, a design outside the hull of the training runs (allow_extrapolation false): refuse it, "
+               "or run the DEM for it (its record says dem_source=full, dem_outside_surrogate=true)"})
 
 
 @dataclass
@@ -761,7 +802,7 @@ class StudyConfig:
     name: str = field(default="design", metadata={
         "doc": "the run's name: its folder under outputs/runs or outputs/sweeps"})
     kind: str = field(default="design", metadata={
-        "choices": ("design", "drum", "lab", "yield_calibration", "yield_fit", "plant", "cheapest_mill"),
+        "choices": ("design", "drum", "lab", "yield_calibration", "yield_fit", "plant", "cheapest_mill", "regional"),
         "doc": "the pipeline the run executes (studies.STUDIES)"})
     observations: str | None = field(default=None, metadata={"doc": "observations.csv drawn beside a lab study"})
     experiment: str | None = field(default=None, metadata={

@@ -375,6 +375,57 @@ def plot_msp(table: pd.DataFrame, by: str, label: str):
     return fig
 
 
+def plot_options_front(fronts: dict[str, pd.DataFrame], virgin_usd_per_kg: float, virgin_kg_per_kg: float):
+    """MSP against footprint of every option combination (options.csv), one panel per case, the
+    Pareto front drawn through its points, virgin TPA's price and virgin PTA's footprint as lines."""
+    n = len(fronts)
+    cols = min(n, 3)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.6 * rows), squeeze=False)
+    for ax, (label, t) in zip(axes.flat, fronts.items()):
+        front = t[t.on_front].sort_values("gwp_kg_per_kg")
+        ax.scatter(t.gwp_kg_per_kg, t.msp_usd_per_kg, s=10, color="0.6", label="option combination")
+        ax.plot(front.gwp_kg_per_kg, front.msp_usd_per_kg, "o-", color="C3", ms=4, label="Pareto front")
+        ax.axhline(virgin_usd_per_kg, color="k", ls="--", lw=0.8, label="virgin TPA price")
+        ax.axvline(virgin_kg_per_kg, color="k", ls=":", lw=0.8, label="virgin PTA footprint")
+        ax.set_title(label, fontsize=9)
+        ax.set_xlabel("kg CO2e per kg rTPA")
+        ax.set_ylabel("MSP ($/kg rTPA)")
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    axes.flat[0].legend(fontsize=6)
+    fig.tight_layout()
+    return fig
+
+
+def plot_regional(states: pd.DataFrame, regional: dict, apart: dict, virgin_usd_per_kg: float,
+                  virgin_kg_per_kg: float):
+    """Per state (study=regional's states.csv): its own plant's MSP (left) and footprint (right)
+    and those of the plant it would share with its nearest larger neighbour, its bales hauled; the
+    one plant for all (its best site), the plants apart (rTPA-weighted) and virgin TPA as lines."""
+    t = states.sort_values("fresh_pet_kg_per_h")
+    x = np.arange(len(t))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    for ax, key, unit in ((axes[0], "msp_usd_per_kg", "MSP ($/kg rTPA)"), (axes[1], "gwp_kg_per_kg",
+                                                                           "kg CO2e per kg rTPA")):
+        ax.bar(x - 0.2, t[f"own_{key}"], 0.4, color="C0", label="its own plant")
+        if f"joined_{key}" in t:
+            ax.bar(x + 0.2, t[f"joined_{key}"], 0.4, color="C2", label="shared with its nearest larger neighbour")
+        ax.axhline(regional[key], color="C3", lw=1.2, label=f"one plant for all, at {regional['site']}")
+        ax.axhline(apart[key], color="C1", ls="-.", lw=1, label="a plant each (rTPA-weighted)")
+        ax.axhline(virgin_usd_per_kg if key.startswith("msp") else virgin_kg_per_kg, color="k", ls="--", lw=0.8,
+                   label="virgin TPA")
+        labels = [s if pd.isna(p) else f"{s}\n->{p}" for s, p in zip(t.state, t.get("partner", t.state))]
+        ax.set_xticks(x, labels, fontsize=8)
+        ax.set_ylabel(unit)
+    axes[0].set_yscale("log")
+    axes[0].legend(fontsize=7)
+    axes[0].set_title("Minimum selling price")
+    axes[1].set_title("Cradle-to-gate footprint")
+    fig.tight_layout()
+    return fig
+
+
 def plot_tornado(tornado: pd.DataFrame, base_usd_per_kg: float, rows: int = 20):
     """MSP at each input's low and high end, the others at base (the `rows` largest swings,
     largest on top)."""

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,7 @@ from .plots import (
     plot_impact_spectra,
     plot_lab_validation,
     plot_measured_power,
+    plot_options_front,
     plot_parity,
     plot_residuals,
     plot_tornado,
@@ -40,7 +42,7 @@ from .yields import pet_fraction
 SOURCES = ["prices.csv", "cepci.csv", "molar_masses.csv", "napcor_2018.csv", "population_2018.csv",
            "yield_lab_conditions.csv", "cost_correlations.csv", "macrs_7yr.csv", "plant_uncertainty.csv",
            "plant_chemicals.csv", "staffing.csv", "ghg_factors.csv", "egrid2022_states.csv", "published_anchors.csv",
-           "measured_mill_power.csv", "yield_experiments.csv", "mill_rtd.csv"]
+           "measured_mill_power.csv", "yield_experiments.csv", "mill_rtd.csv", "haulage.csv", "population_centres.csv"]
 
 
 def collect(sweep_dir: Path) -> pd.DataFrame:
@@ -421,7 +423,80 @@ def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -
                    "which the footprint meets virgin PTA's (empty: not reached between the base over and times "
                    "plant.what_it_takes_span):"), "",
                   tables["what_it_takes"].to_markdown(index=False, floatfmt=".4g"), ""]
+    lines += options_lines(name, ok, out_dir)
     lines += ["Published values beside ours:", "", anchors.to_markdown(index=False), ""]
+    return lines
+
+
+OPTION_COLUMNS = ["evaporation", "heat", "sodium", "naoh_dosing"]
+
+
+def best_options(label: str, t: pd.DataFrame) -> pd.DataFrame:
+    """A case's best plants among its option combinations: the cheapest, the cleanest, and the
+    cheapest of those below virgin TPA's price, footprint, and both (where any is)."""
+    picks = {"cheapest": t, "cleanest": t.sort_values("gwp_kg_per_kg").head(1),
+             "cheapest below virgin price": t[t.below_virgin_price],
+             "cheapest below virgin footprint": t[t.below_virgin_footprint],
+             "cheapest below both": t[t.below_virgin_price & t.below_virgin_footprint]}
+    rows = [{"case": label, "best": name, **pick.sort_values("msp_usd_per_kg").iloc[0].to_dict()}
+            for name, pick in picks.items() if len(pick)]
+    options = [c for c in OPTION_COLUMNS if c in t]
+    return pd.DataFrame(rows)[["case", "best", *options, "msp_usd_per_kg", "gwp_kg_per_kg"]]
+
+
+def options_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
+    """Where the jobs crossed the plant's options (options.csv): MSP against footprint per case
+    with its Pareto front, and each case's best plants."""
+    cases = ok.sort_values("plant_fresh_pet_kg_per_h", ascending=False)
+    fronts = {case_label(rec.to_dict()): pd.read_csv(Path(rec.job_dir) / "options.csv")
+              for _, rec in cases.iterrows() if (Path(rec.job_dir) / "options.csv").is_file()}
+    if not fronts:
+        return []
+    first = cases.iloc[0]
+    save_figure(plot_options_front(fronts, first.virgin_tpa_usd_per_kg, first.virgin_tpa_gwp_kg_per_kg),
+                out_dir / f"{name}_options")
+    best = pd.concat([best_options(label, t) for label, t in fronts.items()], ignore_index=True)
+    on_front = pd.concat([t[t.on_front].assign(case=label) for label, t in fronts.items()], ignore_index=True)
+    write_table(best, out_dir / f"{name}_best_plants")
+    write_table(on_front, out_dir / f"{name}_options_front")
+    seconds = ok.plant_options_s.median() if "plant_options_s" in ok else float("nan")
+    return [(f"Options crossed around each case's mill (plant.options_front; {len(next(iter(fronts.values())))} "
+             f"combinations, {seconds:.1f} s a case): MSP against footprint, the Pareto front in red:"), "",
+            f"![options]({name}_options.png)", "", "Each case's best plants:", "",
+            best.to_markdown(index=False, floatfmt=".3f"), ""]
+
+
+def regional_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
+    """One plant for the states against a plant each (study=regional): the sites, each state joined
+    to its nearest larger neighbour or not, the figure."""
+    lines = []
+    for _, rec in ok.iterrows():
+        job = Path(rec.job_dir)
+        sites, states = pd.read_csv(job / "sites.csv"), pd.read_csv(job / "states.csv")
+        scales = pd.read_csv(job / "scale.csv")
+        write_table(scales, out_dir / f"{name}_scale")
+        write_table(sites, out_dir / f"{name}_sites")
+        write_table(states, out_dir / f"{name}_states")
+        shutil.copy(job / "regional.png", out_dir / f"{name}.png")
+        lines += [f"## One plant for {rec.regional_states} against a plant each (BPR {rec.bpr:g})", "",
+                  (f"The plant for all at {rec.regional_site}'s centre of population: MSP {rec.regional_msp_usd_per_kg:.3f} "
+                   f"$/kg rTPA, {rec.regional_gwp_kg_per_kg:.2f} kg CO2e/kg, the bales hauled {rec.regional_haul_km:.0f} "
+                   f"km on average ({rec.regional_haul_usd_per_t_bales:.1f} $ and "
+                   f"{rec.regional_haul_kg_co2e_per_t_bales:.1f} kg CO2e per t of bales at "
+                   f"{rec.haul_usd_per_t_km:.4f} $/t-km and {rec.haul_kg_co2e_per_t_km:.4f} kg CO2e/t-km); a plant "
+                   f"each: {rec.apart_msp_usd_per_kg:.3f} $/kg and {rec.apart_gwp_kg_per_kg:.2f} kg CO2e/kg "
+                   f"(rTPA-weighted); virgin TPA {rec.virgin_tpa_usd_per_kg:.3f} $/kg, "
+                   f"{rec.virgin_tpa_gwp_kg_per_kg:.2f} kg CO2e/kg ({rec.regional_s:.1f} s)."), "",
+                  (f"Scale: one plant (US grid, no haul) meets virgin TPA's price at "
+                   f"{rec.break_even_fresh_pet_kg_per_h:,.0f} kg/h of fresh PET (NaN: at no feed searched) and virgin "
+                   f"PTA's footprint at {rec.break_even_gwp_fresh_pet_kg_per_h:,.0f} kg/h:"), "",
+                  scales.to_markdown(index=False, floatfmt=".4g"), "",
+                  "The plant for all at each candidate site:", "",
+                  sites[["site", "haul_km", "haul_usd_per_t_bales", "haul_kg_co2e_per_t_bales", "msp_usd_per_kg",
+                         "gwp_kg_per_kg"]].to_markdown(index=False, floatfmt=".3f"), "",
+                  ("Each state's own plant against sharing its nearest larger neighbour's (its bales hauled there; "
+                   "apart: the two plants' rTPA-weighted values):"), "",
+                  states.to_markdown(index=False, floatfmt=".3f"), "", f"![regional]({name}.png)", ""]
     return lines
 
 
@@ -494,6 +569,7 @@ SECTIONS = {
     "yield_designs": yield_design_lines,
     "plant": plant_lines,
     "cheapest_mill": cheapest_mill_lines,
+    "regional": regional_lines,
     "measured_power": measured_power_lines,
 }
 

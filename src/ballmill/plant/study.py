@@ -19,6 +19,7 @@ from ..config import EvaporationConfig, HeatConfig, SodiumConfig
 from . import uncertainty
 from .correlations import price
 from .model import Plant, plant
+from .options import options_table
 from .system import MillSpec
 from .tea import cepci
 from .what_it_takes import break_even
@@ -83,6 +84,8 @@ CONFIG_VARIANTS = {
     "steam from an electric boiler (plant/heat=electric_boiler)": {"heat": HeatConfig(kind="electric_boiler")},
     "steam from the sorted-out plastics (plant/heat=residue_boiler)": {"heat": HeatConfig(kind="residue_boiler")},
     "Na2SO4 split back to NaOH and H2SO4 (plant/sodium=bpmed)": {"sodium": SodiumConfig(kind="bpmed")},
+    "the evaporator's condensate dissolving the Na2TPA (plant.condensate_reuse)": {"condensate_reuse": True},
+    "the acidifier's heat of neutralisation into the liquor (plant.neutralisation_heat)": {"neutralisation_heat": True},
 }
 
 
@@ -103,6 +106,10 @@ def run(mill: MillSpec, cfg, econ, region: str | None, power_se_kw: float, out_d
             own.evaluate()
             break_even(own, cfg.what_it_takes, cfg.what_it_takes_span).to_csv(out_dir / "what_it_takes.csv",
                                                                                 index=False)
+        if cfg.options_front:
+            front_started = time.perf_counter()
+            options_table(p, cfg.options_front).to_csv(out_dir / "options.csv", index=False)
+            record["plant_options_s"] = time.perf_counter() - front_started
         m = uncertainty.model(p, power_se_kw)
         uncertainty.tornado(m).to_csv(out_dir / "tornado.csv", index=False)
         if cfg.monte_carlo_draws:

@@ -10,7 +10,8 @@
                           Na2SO4; liquor -> EG stripper (flash) -> EG column (water off the
                           top, EG from the bottom); residue
     500 wastewater        condensates and the column's water -> treatment (priced by COD; its
-                          organics oxidised to fossil CO2)
+                          organics oxidised to fossil CO2); with plant.condensate_reuse the
+                          evaporator's condensate dissolves the Na2TPA first (fresh water tops up)
     600 storage, cooling  acid and EG tanks, cooling tower; steam bought or made on site (plant.heat)
 
 The mill's PET throughput is the designed one: the bale feed follows from the conversion per
@@ -124,11 +125,18 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
         share = NAOH_DOSED_ON[cfg.naoh_dosing](R201.conversion)
         naoh.imol["NaOH"] = 2 * mill.naoh_to_stoichiometric * share * R201.ins[0].imol["PET"]
 
-    T201 = scaled(bst.MixTank)("T201", ins=(R201 - 0, water), tau=cfg.tank_residence_time_h)
+    reused = S("reused_condensate")
+    M202 = bst.Mixer("M202", ins=(water, reused)) if cfg.condensate_reuse else None
+    T201 = scaled(bst.MixTank)("T201", ins=(R201 - 0, M202 - 0 if M202 else water), tau=cfg.tank_residence_time_h)
+
+    def water_to_dissolve_kg_per_h() -> float:
+        return cfg.dissolution_water_kg_per_kg_na2tpa * R201.outs[0].imass["Na2TPA"]
 
     @T201.add_specification(run=True)
-    def water_to_dissolve():
-        water.imass["Water"] = cfg.dissolution_water_kg_per_kg_na2tpa * R201.outs[0].imass["Na2TPA"]
+    def water_to_dissolve():  # fresh water tops up what the reused condensate brings
+        water.imass["Water"] = max(0.0, water_to_dissolve_kg_per_h() - reused.imass["Water"])
+        if M202:
+            M202.run()
 
     P201 = bst.Pump("P201", ins=T201 - 0)
     S201 = scaled(bst.RotaryVacuumFilter)("S201", ins=P201 - 0, outs=("PET_cake", "Na2TPA_liquor"),
@@ -138,7 +146,8 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
 
     # 300 TPA
     T601 = bst.StorageTank("T601", ins=h2so4, vessel_material="Stainless steel")
-    R301 = Acidifier("R301", ins=(S201 - 1, T601 - 0), tau=cfg.tank_residence_time_h)
+    heat = {c: value(c, "neutralisation_heat_kj_per_mol") for c in ("Na2TPA", "NaOH")} if cfg.neutralisation_heat else {}
+    R301 = Acidifier("R301", ins=(S201 - 1, T601 - 0), tau=cfg.tank_residence_time_h, heat_kj_per_mol=heat)
 
     @R301.add_specification(run=True)
     def acid_for_the_salt():
@@ -183,6 +192,16 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
                                           LHK=("Water", "EthyleneGlycol"), Lr=cfg.eg_column_water_recovery,
                                           Hr=cfg.eg_column_eg_recovery, k=cfg.eg_column_reflux_to_minimum,
                                           P=cfg.eg_column_pressure_pa, vessel_material="Stainless steel 304")
+
+    if cfg.condensate_reuse:
+        S501 = bst.Splitter("S501", ins=condensate, outs=(reused, "surplus_condensate"), split=1.0)
+
+        @S501.add_specification(run=True)
+        def reuse_what_dissolving_needs():
+            have = S501.ins[0].imass["Water"]
+            S501.split[:] = min(1.0, water_to_dissolve_kg_per_h() / have) if have else 0.0
+
+        condensate = S501 - 1
 
     # 500 wastewater, 600 storage and cooling
     M501 = bst.Mixer("M501", ins=(condensate, D402 - 0))

@@ -132,16 +132,25 @@ class SizeReduction(bst.Unit):
 
 @scaled
 class Acidifier(bst.MixTank):
-    """Na2TPA + H2SO4 -> TPA + Na2SO4 and 2 NaOH + H2SO4 -> Na2SO4 + 2 H2O, to completion."""
+    """Na2TPA + H2SO4 -> TPA + Na2SO4 and 2 NaOH + H2SO4 -> Na2SO4 + 2 H2O, to completion; with
+    `heat_kj_per_mol` (reactant -> kJ/mol reacted, negative: released) the tank is adiabatic and
+    that heat warms its outlet (else the outlet leaves at the mixed feed's temperature)."""
 
-    def _init(self, **kwargs):
+    def _init(self, heat_kj_per_mol: dict[str, float] | None = None, **kwargs):
         super()._init(**kwargs)
+        self.heat_kj_per_mol = heat_kj_per_mol or {}
         self.reactions = tmo.ParallelReaction([tmo.Reaction("Na2TPA + H2SO4 -> TPA + Na2SO4", "Na2TPA", 1.0),
                                                tmo.Reaction("2NaOH + H2SO4 -> Na2SO4 + 2Water", "NaOH", 1.0)])
 
     def _run(self):
         super()._run()
-        self.reactions(self.outs[0])
+        out = self.outs[0]
+        H = out.H
+        reacted = {c: out.imol[c] for c in self.heat_kj_per_mol}  # kmol/h, all of it reacts
+        self.reactions(out)
+        self.heat_released_kw = -sum(n * self.heat_kj_per_mol[c] for c, n in reacted.items()) / 3.6  # kmol/h x kJ/mol
+        if self.heat_kj_per_mol:
+            out.H = H + self.heat_released_kw * 3600.0
 
 
 @scaled

@@ -9,6 +9,7 @@ yield_calibration: the lab DEM of the kinetics experiments behind the energy rul
 yield_fit:         kinetics experiments fitted, a model and dose measure chosen (yield_fit.py).
 plant:             the mill and the plant around it on BioSTEAM (plant.py).
 cheapest_mill:     the cheapest mill by the surrogate, confirmed by the DEM (cheapest_mill.py).
+regional:          one plant for a group of states against a plant each, bales hauled (regional.py).
 mechanics.py gives a design's power and dose, by DEM or surrogate, and the checks every DEM makes.
 
 A new pipeline is one module here with its plan function, its entry in STUDIES and its name in
@@ -27,6 +28,7 @@ from .lab import plan_lab, plan_yield_calibration
 from .mechanics import check_machine, cuda_available, mill_drum
 from .plan import Plan
 from .plant import plan_plant
+from .regional import plan_regional
 from .yield_fit import plan_yield_fit
 
 __all__ = ["STUDIES", "Plan", "check_machine", "cuda_available", "mill_drum", "plan"]
@@ -34,7 +36,7 @@ __all__ = ["STUDIES", "Plan", "check_machine", "cuda_available", "mill_drum", "p
 STUDIES: dict[str, Callable[[Scenario], Plan]] = {"design": plan_design, "drum": plan_drum, "lab": plan_lab,
                                                    "yield_calibration": plan_yield_calibration,
                                                    "yield_fit": plan_yield_fit, "plant": plan_plant,
-                                                   "cheapest_mill": plan_cheapest_mill}
+                                                   "cheapest_mill": plan_cheapest_mill, "regional": plan_regional}
 
 
 def plan(s: Scenario) -> Plan:

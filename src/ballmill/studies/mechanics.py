@@ -123,19 +123,28 @@ def check_dem_mode(s: Scenario, design=None) -> None:
                           "surrogate does not predict; use dem=full, or yield_model=specific_energy")
     model = load_surrogate(s.dem.table)
     if design is not None:
-        predict_drum(model, mill_drum(s.mill, design), s.materials, s.interactions, s.dem.allow_extrapolation)
+        predict_drum(model, mill_drum(s.mill, design), s.materials, s.interactions,
+                     s.dem.allow_extrapolation or s.dem.outside == "full")
+
+
+def surrogate_prediction(s: Scenario, drum) -> dict | None:
+    """The surrogate's prediction for the drum, or None where dem.outside=full sends it to the DEM
+    (outside the training runs' hull, extrapolation not allowed); refused outside under dem.outside=refuse."""
+    sends = s.dem.outside == "full" and not s.dem.allow_extrapolation
+    p = predict_drum(load_surrogate(s.dem.table), drum, s.materials, s.interactions, s.dem.allow_extrapolation or sends)
+    return None if sends and not p["inside_hull"] else p
 
 
 def mechanics(s: Scenario, design, threshold_j: float, out_dir: Path | None = None) -> tuple[dict, dict]:
     """The design's mill: its record (dem_*: power, its standard error, ...) and its dose rates
-    per kg of PET held up (impacts of at least threshold_j), from the DEM (dem=full) or the
-    surrogate (dem=surrogate, marked)."""
+    per kg of PET held up (impacts of at least threshold_j), from the DEM (dem=full, or a design
+    outside the surrogate's runs with dem.outside=full, marked) or the surrogate (dem=surrogate, marked)."""
     drum, pet_kg = mill_drum(s.mill, design), pet_holdup_kg(design)
-    if s.dem.mode == "full":
+    p = surrogate_prediction(s, drum) if s.dem.mode == "surrogate" else None
+    if p is None:
         run, dem_dir = run_drum(s, drum, out_dir)
-        return (drum_record(run, dem_dir) | {"dem_source": "full"},
+        return (drum_record(run, dem_dir) | {"dem_source": "full", "dem_outside_surrogate": s.dem.mode == "surrogate"},
                 run_dose(run, pet_kg, threshold_j, s.yield_model.dose_batches))
-    p = predict_drum(load_surrogate(s.dem.table), drum, s.materials, s.interactions, s.dem.allow_extrapolation)
     record = prefixed(p, "dem") | {"dem_source": "surrogate", "dem_table": s.dem.table}
     unknown = {k: float("nan") for m in MEASURES for k in (m, f"{m}_se")}  # the surrogate predicts collision power
     return record, unknown | {"impact_threshold_j": threshold_j,

@@ -60,17 +60,14 @@ def check_plant_tables(plant, prices_file: str) -> None:
 
 
 
-def plan_plant(s: Scenario) -> Plan:
-    """The whole plant for a fresh PET feed: the mill that converts it with the recycle closed
-    (its throughput from the conversion per pass and the purge), designed and simulated as in
-    `design`; then the plant around it on BioSTEAM (plant/study.py): MSP and footprint, their
-    Monte Carlo band, the tornado and the tables."""
+def conversion_per_pass(s: Scenario) -> float:
+    """The mill's conversion per pass (0-1]: the yield target under a dose rule, else the BPR
+    line's; refused where the NaOH or the yield cannot make the plant (before any simulation)."""
     model, scale = s.yield_model, s.scaleup
     dose_rule = yield_rules.rule_of(model.rule).dose
     if dose_rule and model.mode == "fixed_time":
         raise ConfigError("study=plant: yield_model.mode=fixed_time leaves the conversion, hence the mill's "
                           "throughput, unknown until the DEM; use yield_model.mode=target_yield")
-    fresh = design_mill(scale).pet_feed_kg_per_h
     line_y, _ = bpr_line_yield(scale.bpr, model)
     conversion = (model.target_yield_percent or line_y if dose_rule else line_y) / 100.0
     if scale.naoh_feed_kg_per_h is not None:
@@ -84,6 +81,23 @@ def plan_plant(s: Scenario) -> Plan:
         raise ConfigError(f"scaleup.naoh_to_stoichiometric={scale.naoh_to_stoichiometric} is below {least:.3g} with "
                           f"plant.naoh_dosing={s.plant.naoh_dosing}: the mill would run out of NaOH")
     check_plant_tables(s.plant, s.economics.prices_file)
+    return conversion
+
+
+def to_cost_year(s: Scenario) -> float:
+    """CEPCI of the plant's cost year over the economics' target year (the mill's price is in the latter)."""
+    return (lookup("cepci.csv", "year", s.plant.cost_year, "cepci")
+            / lookup("cepci.csv", "year", s.economics.cepci_target_year, "cepci"))
+
+
+def plan_plant(s: Scenario) -> Plan:
+    """The whole plant for a fresh PET feed: the mill that converts it with the recycle closed
+    (its throughput from the conversion per pass and the purge), designed and simulated as in
+    `design`; then the plant around it on BioSTEAM (plant/study.py): MSP and footprint, their
+    Monte Carlo band, the tornado and the tables."""
+    scale = s.scaleup
+    fresh = design_mill(scale).pet_feed_kg_per_h
+    conversion = conversion_per_pass(s)
     mill_pet = mill_throughput_kg_per_h(fresh, conversion, s.plant.recycle_purge_fraction)
     mill_plan = plan_design(replace(s, scaleup=replace(scale, pet_feed_kg_per_h=mill_pet, region=None)))
 
@@ -92,10 +106,8 @@ def plan_plant(s: Scenario) -> Plan:
         from ..plant.system import MillSpec
 
         rec = mill_plan.execute(out_dir)
-        to_cost_year = (lookup("cepci.csv", "year", s.plant.cost_year, "cepci")
-                        / lookup("cepci.csv", "year", s.economics.cepci_target_year, "cepci"))
         mill = MillSpec(mill_pet, rec["yield_percent"] / 100.0, scale.naoh_to_stoichiometric,
-                        rec["dem_power_w"] / 1000.0, rec["purchase_cost_usd"] * to_cost_year,
+                        rec["dem_power_w"] / 1000.0, rec["purchase_cost_usd"] * to_cost_year(s),
                         {"Diameter": rec["diameter_m"], "Length": rec["length_m"], "Balls": rec["ball_count"],
                          "Residence time": rec["residence_time_min"]})
         return rec | run_plant(mill, s.plant, s.economics, scale.region, rec["dem_power_se_w"] / 1000.0, out_dir)

@@ -24,6 +24,9 @@ from ..config import ConfigError
 from ..data import DATA_DIR
 from .space import INPUTS, OUTPUTS
 
+# what a refused design can do instead (config.DemConfig)
+WAY_OUT = "use dem=full, dem.outside=full (the DEM for the designs outside only), or dem.allow_extrapolation=true"
+
 RESTARTS = 4  # optimiser restarts of the kernel's hyperparameters
 
 
@@ -69,12 +72,12 @@ class Surrogate:
             for name, value, v, lo, hi in zip(INPUTS, row, ui, self.lo, self.hi):
                 if not 0.0 <= v <= 1.0:
                     raise ConfigError(f"dem=surrogate: {name}={value:.4g} is outside the training runs' range "
-                                      f"[{lo:.4g}, {hi:.4g}]; use dem=full, or dem.allow_extrapolation=true")
+                                      f"[{lo:.4g}, {hi:.4g}]; {WAY_OUT}")
             if self.hull.find_simplex(ui) < 0:
                 name = INPUTS[int(np.argmax(np.abs(ui - 0.5)))]
                 raise ConfigError(f"dem=surrogate: the design lies outside the hull of the training runs (each input "
                                   f"within its range, but {name}={row[INPUTS.index(name)]:.4g} with the others is "
-                                  "a corner they do not cover); use dem=full, or dem.allow_extrapolation=true")
+                                  f"a corner they do not cover); {WAY_OUT}")
 
     def predict(self, x: np.ndarray, extrapolate: bool = False) -> pd.DataFrame:
         """Each output and its standard error (`<output>_se`) at points x (rows in INPUTS order)."""
