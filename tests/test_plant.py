@@ -309,6 +309,23 @@ def test_prices_and_factors_are_replaced_one_by_one_from_the_config():
     assert record["gwp_naoh_kg_per_kg"] == pytest.approx(s["NaOH"].F_mass * 1.25 / s["rTPA"].F_mass, rel=1e-12)
 
 
+
+def test_a_price_or_factor_of_ones_own_keeps_the_tables_relative_band():
+    """data/plant_uncertainty.csv: bales 75-300 $/t about the table's 150, the US grid 0.4181-0.48
+    kg CO2e/kWh about 0.4181, acid 48-192 about 96: at 400 $/t, 0.011 (outside their bands) and
+    100 $/t (inside) the bands are 200-800 $/t, 0.011-0.012629 (x 0.48 / 0.4181) and 50-200 $/t;
+    a parameter not overridden (EG) keeps its absolute band."""
+    cfg = replace(PlantConfig(), prices_usd_per_t={"pet_bale": 400.0, "h2so4": 100.0},
+                  ghg_kg_co2e={"electricity_us": 0.011})
+    p = own_plant("own band", cfg)
+    rows = uncertainty.ranges(p).set_index("parameter")
+    m = uncertainty.model(p, 0.0)
+    bounds = {q.name: q.bounds for q in m.parameters}
+    assert bounds["price.pet_bale"] == pytest.approx((200.0, 800.0), rel=1e-12)
+    assert bounds["ghg.electricity_us"] == pytest.approx((0.011, 0.011 * 0.48 / 0.4181), rel=1e-12)
+    assert bounds["price.h2so4"] == pytest.approx((48.0 * 100.0 / 96.0, 192.0 * 100.0 / 96.0), rel=1e-12)
+    assert rows.loc["price.eg", "scale"] == "absolute" and bounds["price.eg"] == pytest.approx((673.0, 1249.0))
+
 def test_salt_splitting_returns_naoh_and_acid_for_its_electricity_steam_and_membranes():
     """Na2SO4 -> 2 NaOH + H2SO4 at 4.72 kWh/kg NaOH; membrane area = 2 n_Na2SO4 x Faraday / 0.364
     / 500 A/m2, priced 1,200 $/m2 (2009, CE 521.9) x 2 for the stack; the products' water (at

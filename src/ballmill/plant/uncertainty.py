@@ -10,6 +10,7 @@ The DEM is never rerun: every draw re-simulates the plant around the same built 
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 from collections.abc import Callable
@@ -19,10 +20,11 @@ import chaospy
 import numpy as np
 import pandas as pd
 
-from ..config import ConfigError
+from ..config import ConfigError, PlantConfig
 from ..data import table
-from .footprint import characterize
+from .footprint import characterize, factors
 from .model import CROSS_CHECKS, Plant
+from .tea import prices_usd_per_kg
 
 FILE = "plant_uncertainty.csv"
 PRICED_STREAMS = {"pet_bale": ("bales",), "naoh": ("NaOH",), "h2so4": ("sulfuric_acid",),
@@ -86,10 +88,27 @@ def setters(p: Plant, power_se_kw: float) -> dict[str, tuple[float, Callable[[fl
     return out
 
 
+def table_values(p: Plant) -> dict[str, float]:
+    """parameter -> the value the data tables and defaults give it, for the parameters whose base
+    the config overrides (`plant.prices_usd_per_t`, `plant.ghg_kg_co2e`, a plant field)."""
+    out = {f"price.{k}": prices_usd_per_kg(p.econ.prices_file)[k] * 1000.0 for k in p.cfg.prices_usd_per_t}
+    out |= {f"ghg.{k}": factors()[k] for k in p.cfg.ghg_kg_co2e}
+    defaults = PlantConfig()
+    return out | {f"plant.{f.name}": getattr(defaults, f.name) for f in dataclasses.fields(PlantConfig)
+                  if isinstance(getattr(defaults, f.name), float) and getattr(p.cfg, f.name) != getattr(defaults, f.name)}
+
+
 def ranges(p: Plant) -> pd.DataFrame:
     """The uncertain parameters: data/plant_uncertainty.csv, and each cross-checked unit's
-    purchase cost uniform between its two correlations (as factors on the base)."""
+    purchase cost uniform between its two correlations (as factors on the base).  An absolute
+    range of a parameter whose base the config overrides becomes factors on the table's value,
+    so that a price or factor of one's own keeps the table's relative band."""
     rows = table(FILE).copy()
+    for parameter, value in table_values(p).items():
+        at = (rows.parameter == parameter) & (rows.scale == "absolute")
+        if value and at.any():
+            rows.loc[at, ["low", "high"]] = rows.loc[at, ["low", "high"]] / value
+            rows.loc[at, "scale"] = "factor"
     checks = p.units_table().dropna(subset=["second_over_base"])
     extra = pd.DataFrame({"parameter": "equipment." + checks.unit, "distribution": "uniform", "scale": "factor",
                           "low": np.minimum(1.0, checks.second_over_base),
