@@ -20,7 +20,7 @@ from ballmill.plant.regional import hauled
 from ballmill.plant.options import options_table, pareto_front
 from ballmill.plant.study import variants
 from ballmill.plant.system import MillSpec, fresh_pet_kg_per_h
-from ballmill.plant.what_it_takes import break_even
+from ballmill.plant.what_it_takes import bands, break_even
 
 CEPCI_2021 = 708.8  # data/cepci.csv: the plant's cost year
 MILL = MillSpec(1313.6, 0.7487, 1.0, 35.0, 130_000.0, {})  # the BPR 19 mill at 1000 kg/h of fresh PET
@@ -489,3 +489,24 @@ def test_the_heat_of_neutralisation_warms_the_liquor_by_55_8_kj_per_mol_of_naoh(
     assert warmed == pytest.approx(heat_kw * 3600.0, rel=1e-3)
     steam = [sum(h.duty for h in q.ps.system.heat_utilities if h.duty > 0) / 3600.0 for q in (base, p)]
     assert 0.0 < steam[0] - steam[1] < heat_kw
+
+
+def test_a_break_evens_band_follows_the_draws_to_first_order():
+    """NaOH 608 $/t at MSP 1.0 $/kg, break-even 971 for 1.143: s = 0.143 / 363 $/kg per $/t.  Draws on
+    that line (whatever their NaOH price) all meet 1.143 at 971; draws 0.01 $/kg dearer at
+    971 - 0.01 / s = 945.62; the grid factor, not drawn, from its base 0.4181 with s = (1.60 - 2.0) /
+    (0.2 - 0.4181) kg per kWh factor: draws 0.01 cleaner meet 1.60 at 0.2 + 0.01 / s = 0.205453."""
+    table = pd.DataFrame({"lever": ["price.naoh", "ghg.electricity_us"], "base": [608.0, 0.4181],
+                          "msp_break_even": [971.0, math.nan], "gwp_break_even": [math.nan, 0.2]})
+    s = 0.143 / 363.0
+    naoh = np.array([500.0, 608.0, 700.0, 800.0])
+    on_line = pd.DataFrame({"price.naoh": naoh, "MSP": 1.0 + s * (naoh - 608.0), "GWP": 2.0})
+    base, targets = {"msp_usd_per_kg": 1.0, "gwp_kg_per_kg": 2.0}, {"msp_usd_per_kg": 1.143, "gwp_kg_per_kg": 1.60}
+    out = bands(table, on_line, base, targets).set_index("lever")
+    assert out.loc["price.naoh", ["msp_break_even_p5", "msp_break_even_p95"]].tolist() == pytest.approx([971.0] * 2)
+    dearer = on_line.assign(MSP=on_line.MSP + 0.01, GWP=2.0 - 0.01)
+    out = bands(table, dearer, base, targets).set_index("lever")
+    assert out.loc["price.naoh", "msp_break_even_p95"] == pytest.approx(971.0 - 0.01 / s, rel=1e-12)
+    assert out.loc["ghg.electricity_us", "gwp_break_even_p5"] == pytest.approx(
+        0.2 + 0.01 / ((1.60 - 2.0) / (0.2 - 0.4181)), rel=1e-12)
+    assert math.isnan(out.loc["ghg.electricity_us", "msp_break_even_p5"])

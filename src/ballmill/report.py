@@ -421,7 +421,8 @@ def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -
     if "what_it_takes" in tables:
         lines += [("What it takes: each lever alone, the value at which the MSP meets virgin TPA's price and the one at "
                    "which the footprint meets virgin PTA's (empty: not reached between the base over and times "
-                   "plant.what_it_takes_span):"), "",
+                   "plant.what_it_takes_span; _p5/_p95: the 5-95 % band over the Monte Carlo's draws, to first "
+                   "order in the lever):"), "",
                   tables["what_it_takes"].to_markdown(index=False, floatfmt=".4g"), ""]
     lines += options_lines(name, ok, out_dir)
     lines += ["Published values beside ours:", "", anchors.to_markdown(index=False), ""]

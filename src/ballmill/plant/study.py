@@ -22,7 +22,7 @@ from .model import Plant, plant
 from .options import options_table
 from .system import MillSpec
 from .tea import cepci
-from .what_it_takes import break_even
+from .what_it_takes import bands, break_even, virgin
 
 log = logging.getLogger(__name__)
 BAND = (5, 50, 95)  # percentiles of the Monte Carlo reported beside the base value
@@ -101,11 +101,11 @@ def run(mill: MillSpec, cfg, econ, region: str | None, power_se_kw: float, out_d
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the base case's design warnings are recorded; its variants' would repeat them
         variants(p).to_csv(out_dir / "variants.csv", index=False)
+        takes = None
         if cfg.what_it_takes:
             own = plant(mill, cfg, econ, region, name="what_it_takes")  # its levers leave the base plant as it is
             own.evaluate()
-            break_even(own, cfg.what_it_takes, cfg.what_it_takes_span).to_csv(out_dir / "what_it_takes.csv",
-                                                                                index=False)
+            takes = break_even(own, cfg.what_it_takes, cfg.what_it_takes_span)
         if cfg.options_front:
             front_started = time.perf_counter()
             options_table(p, cfg.options_front).to_csv(out_dir / "options.csv", index=False)
@@ -119,6 +119,10 @@ def run(mill: MillSpec, cfg, econ, region: str | None, power_se_kw: float, out_d
             for column, name in (("MSP", "msp_p{}_usd_per_kg"), ("GWP", "gwp_p{}_kg_per_kg")):
                 record |= {name.format(q): v for q, v in zip(BAND, np.percentile(draws[column], BAND))}
             record["monte_carlo_s"] = seconds
+            if takes is not None:
+                takes = bands(takes, draws, base, virgin(p))
+        if takes is not None:
+            takes.to_csv(out_dir / "what_it_takes.csv", index=False)
         p.evaluate()
     record["plant_s"] = time.perf_counter() - started
     log.info("plant: MSP %.3f $/kg rTPA, %.2f kg CO2e/kg (%d draws) in %.0f s", base["msp_usd_per_kg"],

@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
 import pandas as pd
 from scipy.optimize import brentq
 
@@ -27,12 +28,17 @@ def search_range(lever: str, base: float, span: float) -> tuple[float, float]:
     return lo, hi
 
 
+def virgin(p: Plant) -> dict[str, float]:
+    """The targets: virgin TPA's price ($/kg) and virgin PTA's footprint (kg CO2e/kg)."""
+    return {"msp_usd_per_kg": p.prices["tpa"], "gwp_kg_per_kg": p.cf["virgin_tpa"]}
+
+
 def break_even(p: Plant, levers: list[str], span: float) -> pd.DataFrame:
     """Per lever: its base, the value giving MSP = virgin TPA's price ($/kg) and the one giving
     footprint = virgin PTA's (kg CO2e/kg), each searched over search_range; NaN where the target
     is not crossed there (the lever alone cannot reach it)."""
     known = uncertainty.setters(p, 0.0)
-    targets = {"msp_usd_per_kg": p.prices["tpa"], "gwp_kg_per_kg": p.cf["virgin_tpa"]}
+    targets = virgin(p)
     rows = []
     for lever in levers:
         base, set_ = known[lever]
@@ -53,4 +59,28 @@ def break_even(p: Plant, levers: list[str], span: float) -> pd.DataFrame:
     out = pd.DataFrame(rows)
     out["msp_break_even_over_base"] = out.msp_break_even / out.base
     out["gwp_break_even_over_base"] = out.gwp_break_even / out.base
+    return out
+
+
+def bands(table: pd.DataFrame, draws: pd.DataFrame, base: dict[str, float], targets: dict[str, float]) -> pd.DataFrame:
+    """`table` (break_even's) with each break-even's 5-95 % band over the Monte Carlo's draws
+    (columns MSP, GWP and the levers drawn), to first order in the lever: along the lever the
+    indicator moves by s = (target - base) / (break-even - base value) per unit, so a draw
+    (lever v, indicator y) meets the target at v + (target - y) / s; a lever not drawn stays at
+    its base.  Exact where the indicator is linear in the lever, as the MSP is in a price; an end
+    beyond the lever's physical range (below zero) says that some draws cannot reach the target by
+    that lever alone."""
+    out = table.copy()
+    for indicator, column in (("msp_usd_per_kg", "MSP"), ("gwp_kg_per_kg", "GWP")):
+        prefix = indicator.split("_")[0]
+        for q in (5, 95):
+            out[f"{prefix}_break_even_p{q}"] = math.nan
+        for i, row in out.iterrows():
+            root = row[f"{prefix}_break_even"]
+            if math.isnan(root) or root == row.base:
+                continue
+            slope = (targets[indicator] - base[indicator]) / (root - row.base)
+            lever = draws[row.lever] if row.lever in draws else row.base
+            at = lever + (targets[indicator] - draws[column]) / slope
+            out.loc[i, [f"{prefix}_break_even_p5", f"{prefix}_break_even_p95"]] = np.percentile(at, (5, 95))
     return out
