@@ -141,6 +141,7 @@ RUN = [
     (["study=plant", "plant.startup_months=13"], r"plant.startup_months=13.0 is outside the allowed range \[0.0, 12.0\]"),
     (["study=plant", "plant.loan_fraction=1"], r"plant.loan_fraction=1.0 is outside .*\[0.0, 1.0\)"),
     (["study=plant", "plant.eg_price_fraction=1.5"], r"plant.eg_price_fraction=1.5 is outside .*\[0.0, 1.0\]"),
+    (["study=plant", "plant.hxn_min_approach_k=0"], r"plant.hxn_min_approach_k=0.0 is outside .*\[1.0, 50.0\]"),
     (["study=plant", "economics.prices_file=cepci.csv"], r"cepci.csv lacks the columns \['item', 'price_usd_per_t'\]"),
     (["study=plant", "plant.plant_life_yr=0"], r"plant.plant_life_yr=0 is outside the allowed range \[1, 100\]"),
     (["study=plant", "plant.recycle_purge_fraction=0"], r"plant.recycle_purge_fraction=0.0 is outside .*\(0.0, 1.0\]"),

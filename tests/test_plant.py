@@ -510,3 +510,37 @@ def test_a_break_evens_band_follows_the_draws_to_first_order():
     assert out.loc["ghg.electricity_us", "gwp_break_even_p5"] == pytest.approx(
         0.2 + 0.01 / ((1.60 - 2.0) / (0.2 - 0.4181)), rel=1e-12)
     assert math.isnan(out.loc["ghg.electricity_us", "msp_break_even_p5"])
+
+
+def test_a_heat_exchanger_network_buys_less_steam_for_the_heat_it_moves(built):
+    """The network matches hot streams that cooling water would cool with cold streams that steam
+    would heat: the heat its exchangers move is at most the smaller of the hot and the cold
+    duties of the streams it matches (kW), the steam saved is that heat over the steam's transfer
+    efficiency, the network's exchangers are in the installed cost, and a second evaluation gives
+    the same MSP (the Monte Carlo re-evaluates in place)."""
+    p = own_plant("hxn", replace(PlantConfig(), heat_integration=True))
+    msp = p.tea.solve_price(p.rtpa)
+    assert p.evaluate()["msp_usd_per_kg"] == pytest.approx(msp, abs=1e-9)
+    hxn = p.ps.units["HXN"]
+    matched = [hu for hu, cycle in zip(hxn.original_heat_utils, hxn.stream_life_cycles)
+               if any(isinstance(stage.unit, bst.HXprocess) for stage in cycle.life_cycle)]
+    hot = -sum(hu.unit_duty for hu in matched if hu.duty < 0) / 3600.0
+    cold = sum(hu.unit_duty for hu in matched if hu.duty > 0) / 3600.0
+    moved = sum(hx.Q for hx in hxn.new_HXs) / 3600.0
+    assert 0.0 < moved <= min(hot, cold) * (1 + 1e-6)
+
+    def steam(q):  # agent -> kW bought
+        duty = {}
+        for h in q.ps.system.heat_utilities:
+            if h.agent.ID.endswith("_steam"):
+                duty[h.agent.ID] = duty.get(h.agent.ID, 0.0) + h.duty / 3600.0
+        return duty
+
+    before, after = steam(built), steam(p)
+    saved = {ID: before[ID] - after.get(ID, 0.0) for ID in before}
+    assert sum(saved.values()) > 0.0  # MJ/h less steam bought
+    heat = sum(kw * bst.HeatUtility.get_agent(ID).heat_transfer_efficiency for ID, kw in saved.items())
+    assert heat == pytest.approx(moved, rel=1e-6)
+    others = sum(u.installed_cost for u in p.tea.units if u is not hxn)
+    assert hxn in p.tea.units and hxn.installed_cost > 0.0
+    assert p.tea.installed_equipment_cost == pytest.approx(others + hxn.installed_cost, rel=1e-12)

@@ -564,6 +564,12 @@ class PlantConfig:
     neutralisation_heat: bool = field(default=False, metadata={
         "doc": "the acidifier's heat of neutralisation (data/plant_chemicals.csv) warms the liquor it sends on (less "
                "steam in the evaporator), or is left out (the acidifier's outlet at its feeds' temperature)"})
+    heat_integration: bool = field(default=False, metadata={
+        "doc": "a heat-exchanger network (BioSTEAM's pinch synthesis over the units' heat exchangers, condensers "
+               "and reboilers) matches hot streams with cold ones: less steam and cooling water, its exchangers' "
+               "cost added; false: every heat exchanger buys its own steam or cooling water"})
+    hxn_min_approach_k: float = rng(10.0, 1.0, 50.0, doc=(
+        "the heat-exchanger network's minimum approach temperature (K), with heat_integration"))
     tpa_recovery: float = rng(0.98, 0.5, 1.0, doc="share of the TPA the filter keeps")
     tpa_cake_moisture: float = rng(0.2, 0.03, 0.6, doc="water in the washed TPA cake (mass fraction)")
     wash_water_kg_per_kg_tpa: float = rng(2.0, 0.0, 20.0, doc="wash water on the TPA cake")

@@ -86,6 +86,7 @@ CONFIG_VARIANTS = {
     "Na2SO4 split back to NaOH and H2SO4 (plant/sodium=bpmed)": {"sodium": SodiumConfig(kind="bpmed")},
     "the evaporator's condensate dissolving the Na2TPA (plant.condensate_reuse)": {"condensate_reuse": True},
     "the acidifier's heat of neutralisation into the liquor (plant.neutralisation_heat)": {"neutralisation_heat": True},
+    "heat integrated by a heat-exchanger network (plant.heat_integration)": {"heat_integration": True},
 }
 
 

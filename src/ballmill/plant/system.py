@@ -12,7 +12,9 @@
     500 wastewater        condensates and the column's water -> treatment (priced by COD; its
                           organics oxidised to fossil CO2); with plant.condensate_reuse the
                           evaporator's condensate dissolves the Na2TPA first (fresh water tops up)
-    600 storage, cooling  acid and EG tanks, cooling tower; steam bought or made on site (plant.heat)
+    600 storage, cooling  acid and EG tanks, cooling tower; steam bought or made on site (plant.heat);
+                          with plant.heat_integration a heat-exchanger network (BioSTEAM's pinch
+                          synthesis over the heat exchangers, condensers and reboilers)
 
 The mill's PET throughput is the designed one: the bale feed follows from the conversion per
 pass, the purge, the bale's PET content and the fines lost, so that the recycle loop closes at
@@ -212,6 +214,8 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
     CT.ins[2].price = prices["cooling_tower_chemicals"]
     FATES[cfg.sodium.kind]({s.ID: s for s in fs.stream}, cfg, prices, cepci)
     SOURCES[cfg.heat.kind]({s.ID: s for s in fs.stream}, cfg, cepci)
+    if cfg.heat_integration:
+        bst.HeatExchangerNetwork("HXN", T_min_app=cfg.hxn_min_approach_k)
     system = fs.create_system("plant")
     # BioSTEAM's defaults (1 kmol/h, 1 %) leave the PET recycle (~2 kmol/h) path-dependent by ~1 % of the MSP
     system.set_tolerance(mol=RECYCLE_TOLERANCE_KMOL_PER_H, rmol=RECYCLE_RELATIVE_TOLERANCE, subsystems=True)
