@@ -544,3 +544,29 @@ def test_a_heat_exchanger_network_buys_less_steam_for_the_heat_it_moves(built):
     others = sum(u.installed_cost for u in p.tea.units if u is not hxn)
     assert hxn in p.tea.units and hxn.installed_cost > 0.0
     assert p.tea.installed_equipment_cost == pytest.approx(others + hxn.installed_cost, rel=1e-12)
+
+
+def test_a_lever_end_the_plant_cannot_be_solved_at_is_moved_toward_the_base(monkeypatch):
+    """NaOH 60.8-6080 $/t about 608 with the plant unsolvable below 200 $/t: 60.8 fails, then
+    sqrt(60.8 x 608) = 192.27 fails, sqrt(192.27 x 608) = 341.90 solves; no price of NaOH alone
+    meets virgin TPA's (NaOH free leaves ~1.19 $/kg), so the search ends without a root and without
+    an error."""
+    p = own_plant("unsolvable")
+    base, set_naoh = uncertainty.setters(p, 0.0)["price.naoh"]
+    at = {"v": base}
+    evaluate = p.evaluate
+
+    def set_(v):
+        at["v"] = v
+        set_naoh(v)
+
+    def fragile():
+        if at["v"] < 200.0:
+            raise RuntimeError("S401: permeate moisture content is infeasible")
+        return evaluate()
+
+    monkeypatch.setattr(uncertainty, "setters", lambda plant, se: {"price.naoh": (base, set_)})
+    monkeypatch.setattr(p, "evaluate", fragile)
+    row = break_even(p, ["price.naoh"], 10.0).iloc[0]
+    assert row.searched_low == pytest.approx(math.sqrt(math.sqrt(60.8 * 608.0) * 608.0), rel=1e-12)
+    assert row.searched_high == pytest.approx(6080.0) and math.isnan(row.msp_break_even)

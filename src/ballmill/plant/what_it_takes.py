@@ -16,6 +16,8 @@ from . import uncertainty
 from .model import Plant
 
 RELATIVE_TOLERANCE = 1e-6
+UNSOLVABLE = (RuntimeError, ValueError, FloatingPointError)  # what BioSTEAM raises where a plant cannot be solved
+HALVINGS = 8  # tries at moving an end of the search range toward the base
 
 
 def search_range(lever: str, base: float, span: float) -> tuple[float, float]:
@@ -33,25 +35,49 @@ def virgin(p: Plant) -> dict[str, float]:
     return {"msp_usd_per_kg": p.prices["tpa"], "gwp_kg_per_kg": p.cf["virgin_tpa"]}
 
 
+def solvable_end(indicators, base: float, end: float) -> tuple[float, dict]:
+    """The end of a search range nearest `end`, on the way to `base` (halving the log distance,
+    or the distance where a sign differs), at which the plant can be solved, and its indicators;
+    a plant BioSTEAM cannot solve there (a unit's infeasible specification, a recycle that does
+    not converge) has its recycles emptied before the next try."""
+    for _ in range(HALVINGS):
+        try:
+            return end, indicators(end)
+        except UNSOLVABLE:
+            end = math.copysign(math.sqrt(end * base), base) if end * base > 0 else 0.5 * (end + base)
+    return base, indicators(base)
+
+
 def break_even(p: Plant, levers: list[str], span: float) -> pd.DataFrame:
     """Per lever: its base, the value giving MSP = virgin TPA's price ($/kg) and the one giving
-    footprint = virgin PTA's (kg CO2e/kg), each searched over search_range; NaN where the target
-    is not crossed there (the lever alone cannot reach it)."""
+    footprint = virgin PTA's (kg CO2e/kg), each searched over search_range narrowed to where the
+    plant can be solved (searched_low, searched_high); NaN where the target is not crossed there
+    (the lever alone cannot reach it)."""
     known = uncertainty.setters(p, 0.0)
     targets = virgin(p)
     rows = []
     for lever in levers:
         base, set_ = known[lever]
-        row = {"lever": lever, "base": base}
+
+        def indicators(v: float, set_=set_) -> dict:
+            set_(v)
+            try:
+                return p.evaluate()
+            except UNSOLVABLE:
+                p.ps.system.empty_recycles()
+                raise
+
+        lo, at_lo = solvable_end(indicators, base, search_range(lever, base, span)[0])
+        hi, at_hi = solvable_end(indicators, base, search_range(lever, base, span)[1])
+        row = {"lever": lever, "base": base, "searched_low": lo, "searched_high": hi}
         for indicator, target in targets.items():
-
-            def gap(v: float, set_=set_, indicator=indicator, target=target) -> float:
-                set_(v)
-                return p.evaluate()[indicator] - target
-
-            lo, hi = search_range(lever, base, span)
-            crossed = gap(lo) * gap(hi) < 0
-            root = brentq(gap, lo, hi, xtol=RELATIVE_TOLERANCE * abs(base)) if crossed else math.nan
+            root = math.nan
+            if (at_lo[indicator] - target) * (at_hi[indicator] - target) < 0:
+                try:
+                    root = brentq(lambda v, i=indicator, t=target: indicators(v)[i] - t, lo, hi,
+                                  xtol=RELATIVE_TOLERANCE * abs(base))
+                except UNSOLVABLE:  # a point inside the range the plant cannot be solved at
+                    pass
             row[f"{indicator.split('_')[0]}_break_even"] = root
         set_(base)
         rows.append(row)
