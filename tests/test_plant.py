@@ -12,12 +12,11 @@ import pandas as pd
 import pytest
 
 from ballmill.config import EconomicsConfig, EvaporationConfig, HeatConfig, PlantConfig, SodiumConfig
-from ballmill.plant import uncertainty
+from ballmill.plant import haulage, uncertainty
 from ballmill.plant.correlations import price
-from ballmill.plant import haulage
 from ballmill.plant.model import plant
-from ballmill.plant.regional import hauled
 from ballmill.plant.options import options_table, pareto_front
+from ballmill.plant.regional import hauled
 from ballmill.plant.study import variants
 from ballmill.plant.system import MillSpec, fresh_pet_kg_per_h
 from ballmill.plant.what_it_takes import bands, break_even

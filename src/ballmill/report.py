@@ -7,6 +7,7 @@ exist and lists the failed jobs.
 from __future__ import annotations
 
 import json
+import math
 import re
 import shutil
 from pathlib import Path
@@ -467,6 +468,11 @@ def options_lines(name: str, ok: pd.DataFrame, out_dir: Path) -> list[str]:
             best.to_markdown(index=False, floatfmt=".3f"), ""]
 
 
+def feed(kg_per_h: float) -> str:
+    """A break-even feed in words: its kg/h of fresh PET, or that no feed searched reaches it."""
+    return "no feed searched" if math.isnan(kg_per_h) else f"{kg_per_h:,.0f} kg/h of fresh PET"
+
+
 def regional_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -> list[str]:
     """One plant for the states against a plant each (study=regional): the sites, each state joined
     to its nearest larger neighbour or not, the figure."""
@@ -488,9 +494,8 @@ def regional_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path
                    f"each: {rec.apart_msp_usd_per_kg:.3f} $/kg and {rec.apart_gwp_kg_per_kg:.2f} kg CO2e/kg "
                    f"(rTPA-weighted); virgin TPA {rec.virgin_tpa_usd_per_kg:.3f} $/kg, "
                    f"{rec.virgin_tpa_gwp_kg_per_kg:.2f} kg CO2e/kg ({rec.regional_s:.1f} s)."), "",
-                  (f"Scale: one plant (US grid, no haul) meets virgin TPA's price at "
-                   f"{rec.break_even_fresh_pet_kg_per_h:,.0f} kg/h of fresh PET (NaN: at no feed searched) and virgin "
-                   f"PTA's footprint at {rec.break_even_gwp_fresh_pet_kg_per_h:,.0f} kg/h:"), "",
+                  (f"Scale: one plant (US grid, no haul) meets virgin TPA's price at {feed(rec.break_even_fresh_pet_kg_per_h)} "
+                   f"and virgin PTA's footprint at {feed(rec.break_even_gwp_fresh_pet_kg_per_h)}:"), "",
                   scales.to_markdown(index=False, floatfmt=".4g"), "",
                   "The plant for all at each candidate site:", "",
                   sites[["site", "haul_km", "haul_usd_per_t_bales", "haul_kg_co2e_per_t_bales", "msp_usd_per_kg",

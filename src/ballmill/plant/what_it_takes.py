@@ -106,7 +106,7 @@ def bands(table: pd.DataFrame, draws: pd.DataFrame, base: dict[str, float], targ
             if math.isnan(root) or root == row.base:
                 continue
             slope = (targets[indicator] - base[indicator]) / (root - row.base)
-            lever = draws[row.lever] if row.lever in draws else row.base
+            lever = draws.get(row.lever, row.base)
             at = lever + (targets[indicator] - draws[column]) / slope
             out.loc[i, [f"{prefix}_break_even_p5", f"{prefix}_break_even_p95"]] = np.percentile(at, (5, 95))
     return out
