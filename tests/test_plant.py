@@ -415,7 +415,7 @@ def test_road_distance_is_the_great_circle_times_the_circuity():
 def test_hauled_bales_cost_and_emit_their_haul():
     """100 km of haul: the bale (150 $/t, 0.16 kg CO2e/kg) costs 150 + 100 x 0.077106 = 157.711 $/t
     and emits 0.16 + 100 x 0.115756 / 1000 = 0.171576 kg CO2e/kg."""
-    cfg = hauled(PlantConfig(), "prices.csv", 100.0)
+    cfg = hauled(PlantConfig(), ECON, 100.0)
     assert cfg.prices_usd_per_t["pet_bale"] == pytest.approx(157.711, rel=1e-5)
     assert cfg.ghg_kg_co2e["pet_bale"] == pytest.approx(0.171576, rel=1e-5)
 

@@ -132,16 +132,22 @@ class Plant:
         return out
 
 
+def inputs(cfg, econ) -> tuple[dict[str, float], dict[str, float]]:
+    """The plant's prices ($/kg, econ.prices_file's) and greenhouse-gas factors (data/ghg_factors.csv's),
+    cfg's one-by-one overrides (plant.prices_usd_per_t in $/t, plant.ghg_kg_co2e) on top."""
+    prices = prices_usd_per_kg(econ.prices_file) | {k: v / 1000.0 for k, v in cfg.prices_usd_per_t.items()}
+    return prices, factors() | dict(cfg.ghg_kg_co2e)
+
+
 def plant(mill: MillSpec, cfg, econ, region: str | None = None, name: str = "plant") -> Plant:
     """The plant around `mill` (cfg: PlantConfig, copied: the uncertainty varies the copy;
     econ: EconomicsConfig; region: a state code for its grid)."""
     cfg = replace(cfg)
     index = cepci(cfg.cost_year)
-    prices = prices_usd_per_kg(econ.prices_file) | {k: v / 1000.0 for k, v in cfg.prices_usd_per_t.items()}
+    prices, cf = inputs(cfg, econ)
     prices["na2so4"] = cfg.na2so4_usd_per_t / 1000.0
     configure_utilities(prices, econ.electricity_usd_per_kwh, index)
     ps = build(mill, cfg, prices, index, name)
-    cf = factors() | dict(cfg.ghg_kg_co2e)
     characterize(ps.streams, cf, region, cfg.landfill)
     tea = PlantTEA(ps.system, cfg, econ.hours_per_year, cfg.cost_year)
     return Plant(ps, tea, mill, cfg, econ, region, prices, cf)

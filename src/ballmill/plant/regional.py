@@ -24,34 +24,27 @@ from scipy.optimize import brentq
 
 from ..plots import plot_regional, save_figure
 from . import haulage
-from .footprint import factors
-from .model import plant
+from .model import inputs, plant
 from .system import MillSpec
-from .tea import prices_usd_per_kg
+from .what_it_takes import virgin
 
 log = logging.getLogger(__name__)
 SCALE_XTOL = 1e-10  # on the natural log of the feed: the MSP at the root within ~1e-10 $/kg of the target
 
 
-def virgin(cfg, prices_file: str, item: str) -> tuple[float, float]:
-    """An item's price ($/t) and factor (kg CO2e per its unit) as the plant takes them (cfg's first)."""
-    return (cfg.prices_usd_per_t.get(item, prices_usd_per_kg(prices_file).get(item, float("nan")) * 1000.0),
-            cfg.ghg_kg_co2e.get(item, factors().get(item, float("nan"))))
-
-
-def hauled(cfg, prices_file: str, km: float) -> object:
+def hauled(cfg, econ, km: float) -> object:
     """cfg with the bales dearer and dirtier by a haul of `km` (feed-weighted mean, road km)."""
-    bale_usd_per_t, bale_kg_co2e = virgin(cfg, prices_file, "pet_bale")
+    prices, cf = inputs(cfg, econ)
     return replace(cfg, prices_usd_per_t={**cfg.prices_usd_per_t,
-                                          "pet_bale": bale_usd_per_t + km * haulage.usd_per_t_km()},
-                   ghg_kg_co2e={**cfg.ghg_kg_co2e, "pet_bale": bale_kg_co2e + km * haulage.kg_co2e_per_t_km() / 1000.0})
+                                          "pet_bale": prices["pet_bale"] * 1000.0 + km * haulage.usd_per_t_km()},
+                   ghg_kg_co2e={**cfg.ghg_kg_co2e, "pet_bale": cf["pet_bale"] + km * haulage.kg_co2e_per_t_km() / 1000.0})
 
 
 def evaluate(feeds: dict[str, float], site: str, mill: Callable[[float], dict], cfg, econ) -> dict:
     """The plant at `site` for the states' summed feeds (kg/h of PET), their bales hauled there."""
     total = sum(feeds.values())
     km = sum(f * haulage.road_km(c, site) for c, f in feeds.items()) / total
-    p = plant(MillSpec(**mill(total)), hauled(cfg, econ.prices_file, km), econ, site, name="regional")
+    p = plant(MillSpec(**mill(total)), hauled(cfg, econ, km), econ, site, name="regional")
     result = p.evaluate()
     return {"site": site, "fresh_pet_kg_per_h": total, "haul_km": km, "haul_usd_per_t_bales": km * haulage.usd_per_t_km(),
             "haul_kg_co2e_per_t_bales": km * haulage.kg_co2e_per_t_km(), "rtpa_kg_per_h": p.rtpa.F_mass, **result}
@@ -69,8 +62,7 @@ def scale(mill: Callable[[float], dict], cfg, econ, low: float, high: float) -> 
             built[log_feed] = plant(MillSpec(**mill(math.exp(log_feed))), cfg, econ, None, name="scale").evaluate()
         return built[log_feed]
 
-    first = plant(MillSpec(**mill(low)), cfg, econ, None, name="scale")
-    targets = {"msp_usd_per_kg": first.prices["tpa"], "gwp_kg_per_kg": first.cf["virgin_tpa"]}
+    targets = virgin(plant(MillSpec(**mill(low)), cfg, econ, None, name="scale"))
     ends = math.log(low), math.log(high)
     rows = []
     for indicator, target in targets.items():
@@ -120,8 +112,8 @@ def run(feeds: dict[str, float], mill: Callable[[float], dict], cfg, econ, out_d
     scales.to_csv(out_dir / "scale.csv")
     sites.to_csv(out_dir / "sites.csv", index=False)
     best = sites.iloc[0]
-    tpa_usd_per_kg, tpa_kg_co2e = virgin(cfg, econ.prices_file, "tpa")[0] / 1000.0, virgin(cfg, econ.prices_file,
-                                                                                           "virgin_tpa")[1]
+    prices, cf = inputs(cfg, econ)
+    tpa_usd_per_kg, tpa_kg_co2e = prices["tpa"], cf["virgin_tpa"]
     save_figure(plot_regional(states, best.to_dict(), apart, tpa_usd_per_kg, tpa_kg_co2e), out_dir / "regional")
     record = {"regional_site": best.site, "regional_haul_km": best.haul_km,
               "regional_haul_usd_per_t_bales": best.haul_usd_per_t_bales,

@@ -22,9 +22,8 @@ import pandas as pd
 
 from ..config import ConfigError, PlantConfig
 from ..data import table
-from .footprint import characterize, factors
-from .model import CROSS_CHECKS, Plant
-from .tea import prices_usd_per_kg
+from .footprint import characterize
+from .model import CROSS_CHECKS, Plant, inputs
 
 FILE = "plant_uncertainty.csv"
 PRICED_STREAMS = {"pet_bale": ("bales",), "naoh": ("NaOH",), "h2so4": ("sulfuric_acid",),
@@ -91,9 +90,9 @@ def setters(p: Plant, power_se_kw: float) -> dict[str, tuple[float, Callable[[fl
 def table_values(p: Plant) -> dict[str, float]:
     """parameter -> the value the data tables and defaults give it, for the parameters whose base
     the config overrides (`plant.prices_usd_per_t`, `plant.ghg_kg_co2e`, a plant field)."""
-    out = {f"price.{k}": prices_usd_per_kg(p.econ.prices_file)[k] * 1000.0 for k in p.cfg.prices_usd_per_t}
-    out |= {f"ghg.{k}": factors()[k] for k in p.cfg.ghg_kg_co2e}
     defaults = PlantConfig()
+    prices, cf = inputs(defaults, p.econ)
+    out = {f"price.{k}": prices[k] * 1000.0 for k in p.cfg.prices_usd_per_t} | {f"ghg.{k}": cf[k] for k in p.cfg.ghg_kg_co2e}
     return out | {f"plant.{f.name}": getattr(defaults, f.name) for f in dataclasses.fields(PlantConfig)
                   if isinstance(getattr(defaults, f.name), float) and getattr(p.cfg, f.name) != getattr(defaults, f.name)}
 

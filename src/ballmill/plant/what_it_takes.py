@@ -67,8 +67,9 @@ def break_even(p: Plant, levers: list[str], span: float) -> pd.DataFrame:
                 p.ps.system.empty_recycles()
                 raise
 
-        lo, at_lo = solvable_end(indicators, base, search_range(lever, base, span)[0])
-        hi, at_hi = solvable_end(indicators, base, search_range(lever, base, span)[1])
+        lo, hi = search_range(lever, base, span)
+        lo, at_lo = solvable_end(indicators, base, lo)
+        hi, at_hi = solvable_end(indicators, base, hi)
         row = {"lever": lever, "base": base, "searched_low": lo, "searched_high": hi}
         for indicator, target in targets.items():
             root = math.nan
