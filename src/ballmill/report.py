@@ -18,7 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from omegaconf import OmegaConf
 
-from .config import MM400_GEOMETRY, ConfigError, RtdConfig, StudyConfig, StudyReport, one_line, to_object
+from .config import MM400_GEOMETRY, OPTION_GROUPS, ConfigError, RtdConfig, StudyConfig, StudyReport, one_line, to_object
 from .data import table
 from .dose import dose_rates
 from .files import read_json
@@ -430,9 +430,6 @@ def plant_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) -
     return lines
 
 
-OPTION_COLUMNS = ["evaporation", "heat", "sodium", "naoh_dosing"]
-
-
 def best_options(label: str, t: pd.DataFrame) -> pd.DataFrame:
     """A case's best plants among its option combinations: the cheapest, the cleanest, and the
     cheapest of those below virgin TPA's price, footprint, and both (where any is)."""
@@ -442,7 +439,7 @@ def best_options(label: str, t: pd.DataFrame) -> pd.DataFrame:
              "cheapest below both": t[t.below_virgin_price & t.below_virgin_footprint]}
     rows = [{"case": label, "best": name, **pick.sort_values("msp_usd_per_kg").iloc[0].to_dict()}
             for name, pick in picks.items() if len(pick)]
-    options = [c for c in OPTION_COLUMNS if c in t]
+    options = [c for c in OPTION_GROUPS if c in t]
     return pd.DataFrame(rows)[["case", "best", *options, "msp_usd_per_kg", "gwp_kg_per_kg"]]
 
 
