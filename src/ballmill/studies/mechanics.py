@@ -121,10 +121,10 @@ def check_dem_mode(s: Scenario, design=None) -> None:
     if yield_rules.rule_of(s.yield_model.rule).needs_spectrum(s):
         raise ConfigError(f"dem=surrogate: yield_model.rule={s.yield_model.rule} needs the impact spectrum, which the "
                           "surrogate does not predict; use dem=full, or yield_model=specific_energy")
-    model = load_surrogate(s.dem.table)
-    if design is not None:
-        predict_drum(model, mill_drum(s.mill, design), s.materials, s.interactions,
-                     s.dem.allow_extrapolation or s.dem.outside == "full")
+    if design is None:
+        load_surrogate(s.dem.table)  # its table exists
+    else:  # and the design lies inside its training runs, or dem.outside sends it to the DEM
+        surrogate_prediction(s, mill_drum(s.mill, design))
 
 
 def surrogate_prediction(s: Scenario, drum) -> dict | None:
