@@ -31,10 +31,10 @@ def parse(overrides: list[str]):
         raise ConfigError(one_line(exc)) from exc
 
 
-def expand(overrides: list[str], multirun: bool) -> tuple[list[list[str]], list[str], Path | None]:
+def expand(overrides: list[str], multirun: bool) -> tuple[list[list[str]], list[str], DictConfig, Path | None]:
     """Every job's overrides (the command line's sweeps and the sweep file's parameters, as
-    Hydra's basic sweeper combines them), the overrides every job starts with, and the sweep
-    folder (None for a single run)."""
+    Hydra's basic sweeper combines them), the overrides every job starts with, the config those
+    compose (Hydra's node included) and the sweep folder (None for a single run)."""
     parsed = parse(overrides)
     fixed = [o.input_line for o in parsed if not o.is_sweep_override()]
     swept = {o.key_or_group: [f"{o.get_key_element()}={v}" for v in o.sweep_string_iterator()]
@@ -44,12 +44,13 @@ def expand(overrides: list[str], multirun: bool) -> tuple[list[list[str]], list[
     if swept and not multirun:
         raise ConfigError(f"{', '.join(swept)}: several values need a sweep: add -m")
     if not multirun:
-        return [fixed], fixed, None
+        return [fixed], fixed, cfg, None
     for o in parse([f"{k}={v}" for k, v in (cfg.hydra.sweeper.get("params") or {}).items()]):
         if o.key_or_group not in swept:
             values = o.sweep_string_iterator() if o.is_sweep_override() else [o.value()]
             swept[o.key_or_group] = [f"{o.get_key_element()}={v}" for v in values]
-    return [fixed + list(combo) for combo in itertools.product(*swept.values())], fixed, Path(cfg.hydra.sweep.dir)
+    return [fixed + list(combo) for combo in itertools.product(*swept.values())], fixed, cfg, \
+        Path(cfg.hydra.sweep.dir)
 
 
 def with_values(base: DictConfig, overrides: list[str]) -> DictConfig | None:
@@ -79,15 +80,16 @@ def check_jobs(overrides: list[str], multirun: bool) -> Path | None:
     """Refuse the whole run (ConfigError naming the job) if any job's config is bad; the sweep folder.
     What depends on the machine (threads, CUDA) is checked here only when the jobs run here, and
     then the number of jobs run at once is put in LOCAL_JOBS_ENV (inherited by the job processes)."""
-    jobs, fixed, sweep_dir = expand(overrides, multirun)
-    launcher = compose("config", jobs[0], hydra=True).hydra.launcher
-    base = compose("config", fixed) if len(jobs) > 1 else None
+    jobs, fixed, base, sweep_dir = expand(overrides, multirun)
+    # composed once (~0.5 s a composition): a job's own overrides change the launcher only if they name hydra's
+    own_hydra = any(o.lstrip("+~").startswith("hydra") for o in jobs[0][len(fixed):])
+    launcher = (compose("config", jobs[0], hydra=True) if own_hydra else base).hydra.launcher
     if runs_here(launcher) and len(jobs) > 1:  # sim.threads=0 then shares the cores among the jobs at once
         at_once = 1 if "BasicLauncher" in launcher.get("_target_", "") else launcher.get("n_jobs") or os.cpu_count()
         os.environ[LOCAL_JOBS_ENV] = str(min(len(jobs), int(at_once or 1)))
     for job in jobs:
         try:
-            cfg = with_values(base, job[len(fixed):]) if base is not None else None
+            cfg = with_values(base, job[len(fixed):])
             scenario = load(cfg if cfg is not None else compose("config", job))
             plan(scenario)
             if runs_here(launcher):
