@@ -34,7 +34,8 @@ def by_joblib(tmp_path_factory):
 
 
 @pytest.mark.parametrize("launcher", [["hydra/launcher=slurm_local"],
-                                      ["hydra/launcher=ray_jobs", "hydra.launcher.ray.init.num_cpus=2"]],
+                                      ["hydra/launcher=ray_jobs", "hydra.launcher.ray.init.num_cpus=2",
+                                       "+hydra.launcher.ray.init.include_dashboard=false"]],
                          ids=["submitit_local", "ray_local"])
 def test_a_launcher_gives_the_records_of_joblib(by_joblib, tmp_path, launcher):
     assert sweep(tmp_path, launcher[0].split("=")[1], *launcher) == by_joblib  # identical bits
