@@ -61,7 +61,7 @@ SWEEP_JOBS = {"fig3b": ["scaleup.bpr=19,22.9"], "fig4": ["scaleup.region=DC,DE"]
               "scaleup_rule": ["scaleup.bpr=19", "yield_model=bpr_line,specific_energy"],
               "bond_mill": ["interactions.liner-steel.restitution=0.5", "interactions.liner-steel.static_friction=0.5"],
               "lab_validation": ["sim.threads=1", *LAB], "cheapest_mill": ["optimiser.confirm=false"],
-              "yield_fit": ["yield_model.rtd.kind=plug,tanks_in_series"]}
+              "yield_fit": ["yield_model.rtd.kind=tanks_in_series"]}
 OTHERS = {"render": LAB, "calibrate": [*LAB, "restitutions=[0.6]", "frictions=[0.3]"],
           "surrogate": ["points=8", "holdout=0", "folds=8", "jobs=1", "sim.settle_s=0.1", "bounds.diameter_to_ball=[5.0,6.0]",
                         "bounds.fraction_of_critical=[0.8,0.9]", "bounds.fill_fraction=[0.2,0.25]",
@@ -93,6 +93,8 @@ def small(args: list[str], cache: Path, stand_ins: dict[str, str], surrogate: bo
             extra = [*extra, "dem=surrogate"]
         if "study=drum" in rest:  # the reference drum's 8,640 balls of 10 mm: 40 of 60 mm
             extra = [*extra, "mill.ball_radius_m=0.03"]
+        if sweep is not None:  # its jobs one after another in this process, as the reproduce runs them: no
+            extra = [*extra, "hydra/launcher=basic"]  # worker to start and import (test_launchers runs the others)
         # jobs' folders by number: these overrides would name them past the file system's limit
         extra = [*extra, f"cache_dir={cache}", "hydra.sweep.subdir=${hydra.job.num}"]
     elif command in ("surrogate", "render", "calibrate"):
