@@ -7,7 +7,7 @@ import pytest
 
 from ballmill.config import CONF_DIR, ConfigError, DrumConfig, SimConfig, to_object
 from ballmill.run import run
-from ballmill.scenario import compose
+from ballmill.scenario import compose, load
 
 
 def composed(overrides=()):
@@ -80,3 +80,20 @@ def test_a_jobs_value_overrides_applied_to_the_composed_base_give_the_composed_j
     # a group, an addition or a bad value: composed instead
     for other in (["mill=bond"], ["+mill.extra=1"], ["scaleup.bpr=abc"], ["scaleup.no_such_key=1"]):
         assert with_values(base, other) is None
+
+
+def test_a_sweep_of_groups_and_values_composes_each_combination_of_groups_once_and_checks_every_job(monkeypatch):
+    """+sweep=scaleup_rule: 5 yield models x 7 BPRs; each job's config the one Hydra composes for it."""
+    from ballmill import jobs
+
+    composed, loaded = [], []
+    monkeypatch.setattr(jobs, "compose", lambda name, overrides, hydra=False: composed.append(overrides) or
+                        compose(name, overrides, hydra=hydra))
+    monkeypatch.setattr(jobs, "load", lambda cfg: loaded.append(cfg) or load(cfg))
+    jobs.check_jobs(["+sweep=scaleup_rule", "sim.threads=1"], multirun=True)
+    assert len(loaded) == 35 and len(composed) == 1 + 5  # the sweep's own, then one per yield model
+    fixed = ["+sweep=scaleup_rule", "sim.threads=1"]
+    for cfg, job in ((loaded[0], ["scaleup.bpr=10", "yield_model=bpr_line"]),
+                     (loaded[-1], ["scaleup.bpr=22.9", "yield_model=impact_threshold_20mj"])):
+        expected = compose("config", [*fixed, *job])
+        assert {k: cfg[k] for k in expected} == {k: expected[k] for k in expected}

@@ -53,15 +53,21 @@ def expand(overrides: list[str], multirun: bool) -> tuple[list[list[str]], list[
         Path(cfg.hydra.sweep.dir)
 
 
+def changes_a_value(cfg: DictConfig, o) -> bool:
+    """Whether the parsed override `o` only changes the value of a leaf that cfg has (not a config
+    group, an addition or a deletion)."""
+    node = OmegaConf.select(cfg, o.key_or_group, default=MISSING_NODE)
+    return (o.type == OverrideType.CHANGE and o.package is None and not o.is_sweep_override()
+            and node is not MISSING_NODE and not isinstance(node, Container))
+
+
 def with_values(base: DictConfig, overrides: list[str]) -> DictConfig | None:
     """base with `overrides` applied, if each only changes the value of an existing leaf (as
     Hydra applies such an override after composing: composing again per job cost ~0.15 s);
     None if any does more (a config group, an addition, a deletion), or fails: then compose."""
     cfg = base.copy()
     for o in parse(overrides):
-        node = OmegaConf.select(cfg, o.key_or_group, default=MISSING_NODE)
-        if (o.type != OverrideType.CHANGE or o.package is not None or o.is_sweep_override() or node is MISSING_NODE
-                or isinstance(node, Container)):
+        if not changes_a_value(cfg, o):
             return None
         try:
             OmegaConf.update(cfg, o.key_or_group, o.value(), merge=True)
@@ -87,9 +93,14 @@ def check_jobs(overrides: list[str], multirun: bool) -> Path | None:
     if runs_here(launcher) and len(jobs) > 1:  # sim.threads=0 then shares the cores among the jobs at once
         at_once = 1 if "BasicLauncher" in launcher.get("_target_", "") else launcher.get("n_jobs") or os.cpu_count()
         os.environ[LOCAL_JOBS_ENV] = str(min(len(jobs), int(at_once or 1)))
+    bases = {(): base}  # the jobs' config groups composed once per combination (a sweep of groups x values)
     for job in jobs:
         try:
-            cfg = with_values(base, job[len(fixed):])
+            own = job[len(fixed):]
+            groups = tuple(o.input_line for o in parse(own) if not changes_a_value(base, o))
+            if groups not in bases:
+                bases[groups] = compose("config", [*fixed, *groups])
+            cfg = with_values(bases[groups], [o for o in own if o not in groups])
             scenario = load(cfg if cfg is not None else compose("config", job))
             plan(scenario)
             if runs_here(launcher):
