@@ -15,7 +15,7 @@ from __future__ import annotations
 import biosteam as bst
 
 from ..data import table
-from .units import Evaporator, VapourRecompressionEvaporator, vapour_fraction_for
+from .units import Evaporator, VapourFraction, VapourRecompressionEvaporator
 
 
 def multi_effect(ID: str, feed, cfg, cepci: float):
@@ -28,9 +28,11 @@ def multi_effect(ID: str, feed, cfg, cepci: float):
                             P=tuple(cfg.evaporation.effect_pressures_pa), V=cfg.evaporated_water_fraction,
                             V_definition="Overall")
 
+    water = VapourFraction("Water")
+
     @evaporator.add_specification(run=True)
     def evaporate_the_water():  # the last body's flash sets the split: its V for the configured share of water
-        evaporator.V = vapour_fraction_for(evaporator.ins[0], evaporator.P[-1], "Water", cfg.evaporated_water_fraction)
+        evaporator.V = water(evaporator.ins[0], evaporator.P[-1], cfg.evaporated_water_fraction)
 
     if cfg.evaporation.feed_preheat:
         evaporator.outs[1] = exchanger.ins[1]

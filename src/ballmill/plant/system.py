@@ -38,9 +38,9 @@ from .units import (
     BallMillReactor,
     SaltCrystallizer,
     SizeReduction,
+    VapourFraction,
     WastewaterTreatment,
     scaled,
-    vapour_fraction_for,
 )
 
 RECYCLE_TOLERANCE_KMOL_PER_H = 1e-7
@@ -186,9 +186,11 @@ def build(mill: MillSpec, cfg, prices: dict[str, float], cepci: float, name: str
     F401 = scaled(bst.Flash)("F401", ins=S401 - 1, outs=("EG_vapour", S("residue", price=residue_price)),
                              V=0.5, P=cfg.eg_stripper_pressure_pa)
 
+    eg_share = VapourFraction("EthyleneGlycol")
+
     @F401.add_specification(run=True)
     def strip_the_eg():
-        F401.V = vapour_fraction_for(F401.ins[0], F401.P, "EthyleneGlycol", cfg.eg_stripper_recovery)
+        F401.V = eg_share(F401.ins[0], F401.P, cfg.eg_stripper_recovery)
 
     D402 = scaled(bst.BinaryDistillation)("D402", ins=F401 - 0, outs=("column_water", "EG_product"),
                                           LHK=("Water", "EthyleneGlycol"), Lr=cfg.eg_column_water_recovery,

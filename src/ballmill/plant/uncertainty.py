@@ -29,6 +29,12 @@ FILE = "plant_uncertainty.csv"
 PRICED_STREAMS = {"pet_bale": ("bales",), "naoh": ("NaOH",), "h2so4": ("sulfuric_acid",),
                   "disposal": ("sorting_residue", "grinding_fines", "purged_PET", "residue")}
 STEAM = ("low_pressure_steam", "medium_pressure_steam", "high_pressure_steam")
+# parameters read only after the simulation (stream prices, the TEA's rates; and the footprint's
+# factors, ghg.*): a tornado point that moves only these solves the TEA without re-simulating.
+# Not the steam and electricity prices: the simulation books the utilities' costs.
+READ_AFTER_SIMULATION = {"price.pet_bale", "price.naoh", "price.h2so4", "price.eg", "price.disposal",
+                         "plant.eg_price_fraction", "plant.na2so4_usd_per_t", "plant.operator_wage_usd_per_yr",
+                         "plant.supervision_fraction", "plant.maintenance_fraction", "plant.discount_rate"}
 
 
 def setters(p: Plant, power_se_kw: float) -> dict[str, tuple[float, Callable[[float], None]]]:
@@ -171,12 +177,29 @@ def rank_correlations(m: bst.Model) -> pd.DataFrame:
     return rho.rename_axis("parameter").reset_index()
 
 
+def read_after_simulation(parameter: str) -> bool:
+    return parameter in READ_AFTER_SIMULATION or parameter.startswith("ghg.")
+
+
 def tornado(m: bst.Model) -> pd.DataFrame:
     """The MSP and footprint at each parameter's low and high end, the others at base; largest
-    MSP swing first."""
+    MSP swing first.  A point that differs from the last simulation only in parameters read
+    after it (READ_AFTER_SIMULATION, the footprint's factors) is not simulated again (BioSTEAM's
+    own method re-simulates every point)."""
+    simulated = {}  # parameter read in the simulation -> its value there
+
+    def evaluate(sample, **kwargs):
+        for q, v in zip(m.parameters, sample):
+            q.setter(v)
+        read = {q.name: v for q, v in zip(m.parameters, sample) if not read_after_simulation(q.name)}
+        if read != simulated:
+            m.system.simulate(**kwargs)
+            simulated.update(read)
+        return [indicator() for indicator in m.indicators]
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        _, lower, upper = m.single_point_sensitivity()
+        _, lower, upper = m.single_point_sensitivity(evaluate=evaluate)
     names = [q.name for q in m.parameters]
     out = pd.DataFrame({"parameter": names,
                         "low": [q.bounds[0] for q in m.parameters], "high": [q.bounds[1] for q in m.parameters],

@@ -34,20 +34,53 @@ VAPOUR_FRACTION_TOLERANCE = 1e-12
 STEAM_AGENTS = ("low_pressure_steam", "medium_pressure_steam", "high_pressure_steam")
 
 
-def vapour_fraction_for(feed: bst.Stream, P: float, chemical: str, recovery: float) -> float:
-    """The molar vapour fraction V at which `recovery` (0-1) of the `chemical` in `feed` leaves as
-    vapour in an equilibrium flash at `P` (Pa).  V counts only the chemicals that take part in the
-    equilibrium (the salts are locked in their phase), so it is solved for, not summed."""
-    if not feed.imol[chemical]:
-        return 0.0
-    mixed = tmo.MultiStream(None, thermo=feed.thermo)
-    mixed.copy_flow(feed)
+class VapourFraction:
+    """The molar vapour fraction V at which `recovery` (0-1) of `chemical` in a feed leaves as
+    vapour in an equilibrium flash at P (Pa).  V counts only the chemicals that take part in the
+    equilibrium (the salts are locked in their phase), so it is solved for, not summed.
 
-    def short_of(V: float) -> float:
-        mixed.vle(P=P, V=V)
-        return mixed.imol["g", chemical] / feed.imol[chemical] - recovery
+    One solver serves one unit: it keeps its flash and its last root, so that inside a recycle
+    loop or a Monte Carlo, where the feed moves little between calls, secant steps from the last
+    root converge in a few flashes (to VAPOUR_FRACTION_TOLERANCE in V); a step that leaves (0, 1)
+    or stalls falls back to Brent's method on the whole range."""
 
-    return brentq(short_of, 0.0, 1.0, xtol=VAPOUR_FRACTION_TOLERANCE)
+    def __init__(self, chemical: str):
+        self.chemical, self.V, self.mixed = chemical, None, None
+
+    def __call__(self, feed: bst.Stream, P: float, recovery: float) -> float:
+        if not feed.imol[self.chemical]:
+            return 0.0
+        if self.mixed is None or self.mixed.chemicals is not feed.chemicals:
+            self.mixed = tmo.MultiStream(None, thermo=feed.thermo)
+        self.mixed.copy_flow(feed)
+        into = feed.imol[self.chemical]
+
+        def short_of(V: float) -> float:
+            self.mixed.vle(P=P, V=V)
+            return self.mixed.imol["g", self.chemical] / into - recovery
+
+        V = self.V is not None and secant(short_of, self.V)
+        self.V = V if V is not False else brentq(short_of, 0.0, 1.0, xtol=VAPOUR_FRACTION_TOLERANCE)
+        return self.V
+
+
+def secant(f, V: float, step: float = 1e-6, iterations: int = 12) -> float | bool:
+    """The root of f by secant steps from V (the first of `step`), or False where a step leaves
+    (0, 1) or stalls."""
+    a, fa = V, f(V)
+    b = V - step if V + step >= 1.0 else V + step
+    for _ in range(iterations):
+        if fa == 0.0:
+            return a
+        fb = f(b)
+        if fb == fa:
+            return False
+        a, fa, b = b, fb, b - fb * (b - a) / (fb - fa)
+        if not 0.0 < b < 1.0:
+            return False
+        if abs(b - a) < VAPOUR_FRACTION_TOLERANCE:
+            return b
+    return False
 
 
 def scaled(cls):
@@ -227,13 +260,14 @@ class VapourRecompressionEvaporator(bst.Unit):
         self.P, self.water_share, self.kwh_per_t_water = P, water_share, kwh_per_t_water
         self.temperature_difference_k, self.u_w_per_m2_k = temperature_difference_k, u_w_per_m2_k
         self.body_key, self.compressor_key, self.cepci = body_key, compressor_key, cepci
+        self.vapour_fraction = VapourFraction("Water")
 
     def _run(self):
         feed = self.ins[0]
         concentrate, condensate = self.outs
         mixed = tmo.MultiStream(None, thermo=feed.thermo)
         mixed.copy_flow(feed)
-        mixed.vle(P=self.P, V=vapour_fraction_for(feed, self.P, "Water", self.water_share))
+        mixed.vle(P=self.P, V=self.vapour_fraction(feed, self.P, self.water_share))
         concentrate.mol[:] = mixed.imol["l"]
         condensate.mol[:] = mixed.imol["g"]
         concentrate.phase = condensate.phase = "l"
