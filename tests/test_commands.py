@@ -10,6 +10,7 @@ but still checked as `ballmill` checks it before running anything (composed, ran
 every job planned).  The cookbook's figures are checked against what its commands print."""
 
 import json
+import os
 import re
 import shlex
 import shutil
@@ -24,6 +25,7 @@ import trimesh
 import yaml
 
 from ballmill.cli import compose_command, options
+from ballmill.dem.runtime import LOCAL_JOBS_ENV
 from ballmill.jobs import check_jobs
 from ballmill.studies import mechanics
 from ballmill.vision.frames import write_frames
@@ -238,12 +240,13 @@ def test_every_command_shown_runs_on_small_inputs(stand_ins, tmp_path):
         for line in (line for page in PAGES if page.name == name for line in shown(page)
                      if not line.startswith(tuple(NOT_RUN)) and line not in ran):
             ran[line] = group, small(shlex.split(line)[1:], tmp_path / "cache", stand_ins, name in SURROGATE_PAGES)
+    env = {**os.environ, LOCAL_JOBS_ENV: str(len(GROUPS))}  # a command that picks its threads takes its group's share
     for group in GROUPS:
         commands = [args for g, args in ran.values() if g == group]
         folder = tmp_path / group.replace(" ", "_").replace("'", "")
         folder.mkdir()
         drivers[group] = (commands, folder, subprocess.Popen([sys.executable, "-c", DRIVER, json.dumps(commands)],
-                                                             cwd=folder, stdout=subprocess.PIPE,
+                                                             cwd=folder, stdout=subprocess.PIPE, env=env,
                                                              stderr=subprocess.STDOUT, text=True))
     failed, outputs = [], {}
     for group, (commands, folder, proc) in drivers.items():

@@ -1,6 +1,7 @@
 """A lifter drum against LIGGGHTS 3.8 (the same balls, mesh, materials and time step), torque
-within 0.5 % at two speeds (measured ratios 1.0014 and 1.0006: the tolerance is 3.5 times the
-larger miss).  It runs when BALLMILL_PEER_TESTS=1 and takes about three minutes on two cores;
+within 1 % at two speeds.  Measured ratios: 1.0014 and 1.0006 with LIGGGHTS on two ranks (as
+here), 0.9966 and 0.9941 on one: the bed's paths are chaotic, so a different domain split moves
+LIGGGHTS's mean torque by up to 0.6 %, and the tolerance is 1.7 times that spread.  It runs when BALLMILL_PEER_TESTS=1 and takes about three minutes on two cores;
 asked for without `liggghts` on the PATH (Debian: apt-get install liggghts) it fails, since a
 comparison that was requested and could not run is not a pass."""
 
@@ -38,4 +39,4 @@ def test_lifter_drum_torque_matches_liggghts(fraction_of_critical, tmp_path):
     theirs = theirs[theirs.t_s > SIM.settle_s + SIM.steady_after_s].torque_axis_nm.mean()
     print(f"lifter drum at {fraction_of_critical:.0%} of critical: ours {ours['torque_axis_nm']:.4g} N m, "
           f"LIGGGHTS {theirs:.4g} N m, ratio {ours['torque_axis_nm'] / theirs:.4f}")
-    assert ours["torque_axis_nm"] == pytest.approx(theirs, rel=0.005)
+    assert ours["torque_axis_nm"] == pytest.approx(theirs, rel=0.01)
