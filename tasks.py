@@ -94,11 +94,11 @@ def reproduce() -> None:
            f"study.observations={cal}/observations.csv", tag=tag, env=env)
 
     # Largest first (one-core seconds in a reproduce run, each command's start included: plant per
-    # state ~350 with its options' fronts, Figure 4 ~250, shape rule ~150, lab chain ~125, plant ~120,
-    # Figure 3b ~55, MM400 geometry ~30, stiffness ~25, regional plant ~25), so that the two streams end together.
-    in_two_streams([sweep("plant_states", f"sim={sim}"), sweep("fig4", f"sim={sim}"), sweep("shape_rule", f"sim={sim}"),
-                    ("lab", lab_chain), sweep("plant", f"sim={sim}"), sweep("fig3b", f"sim={sim}"),
-                    sweep("mm400_geometry"), sweep("stiffness"), sweep("regional")])
+    # state ~480 with its options' fronts, BPR plant ~260, Figure 4 ~190, lab chain ~130, shape rule
+    # ~120, Figure 3b ~50, stiffness ~30, MM400 geometry ~25, regional plant ~15), so that the two streams end together.
+    in_two_streams([sweep("plant_states", f"sim={sim}"), sweep("fig4", f"sim={sim}"), sweep("plant", f"sim={sim}"),
+                    ("lab", lab_chain), sweep("shape_rule", f"sim={sim}"), sweep("fig3b", f"sim={sim}"),
+                    sweep("stiffness"), sweep("mm400_geometry"), sweep("regional")])
     names = ("fig3b", "fig4", "shape_rule", "plant", "plant_states", "regional", "stiffness", "lab_validation",
              "mm400_geometry")
     sh(ballmill, "report", f"sweeps=[{','.join(f'outputs/sweeps/{name}' for name in names)}]")
