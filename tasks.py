@@ -106,9 +106,9 @@ def reproduce() -> None:
 
 def test() -> None:
     """The suite, one worker per core (pytest-xdist), each test file whole on one worker so that
-    its module fixtures are built once, the files in the order tests/conftest.py gives them."""
+    its module fixtures are built once."""
     sh(str(BIN / "python"), "-m", "pytest", "-q", "-ra", "--durations=15", "-n", "auto", "--dist", "loadfile",
-       "--no-loadscope-reorder", *sys.argv[2:])
+       *sys.argv[2:])
 
 
 if __name__ == "__main__":

@@ -41,27 +41,6 @@ class SkipsFailCI:
                                         red=True)
 
 
-# The files that take the most CPU (seconds in a suite on two cores: commands ~520, the LIGGGHTS
-# comparison ~400, sweeps ~240, docs ~170, launchers, install, yield model, neighbour list,
-# kinetics ~60-100 each) go to the workers first, the rest after them by their number of tests,
-# so that the two workers end together (tasks.py test runs xdist with --no-loadscope-reorder).
-HEAVIEST_FIRST = ("test_commands.py", "test_peer_torque.py", "test_sweeps.py", "test_docs.py", "test_launchers.py",
-                  "test_install.py", "test_yield_model.py", "test_neighbour_list.py", "test_kinetics.py",
-                  "test_checkpoint.py")
-
-
-def pytest_collection_modifyitems(items):
-    count = {}
-    for item in items:
-        count[item.path.name] = count.get(item.path.name, 0) + 1
-
-    def rank(item):
-        name = item.path.name
-        return (HEAVIEST_FIRST.index(name), 0) if name in HEAVIEST_FIRST else (len(HEAVIEST_FIRST), -count[name])
-
-    items.sort(key=rank)  # stable: a file's tests keep their order
-
-
 def pytest_configure(config):
     if os.environ.get("CI"):
         config.pluginmanager.register(SkipsFailCI(), "skips_fail_ci")
