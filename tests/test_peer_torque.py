@@ -1,9 +1,10 @@
 """A lifter drum against LIGGGHTS 3.8 (the same balls, mesh, materials and time step), torque
 within 1 % at two speeds.  Measured ratios: 1.0014 and 1.0006 with LIGGGHTS on two ranks (as
 here), 0.9966 and 0.9941 on one: the bed's paths are chaotic, so a different domain split moves
-LIGGGHTS's mean torque by up to 0.6 %, and the tolerance is 1.7 times that spread.  It runs when BALLMILL_PEER_TESTS=1 and takes about three minutes on two cores;
-asked for without `liggghts` on the PATH (Debian: apt-get install liggghts) it fails, since a
-comparison that was requested and could not run is not a pass."""
+LIGGGHTS's mean torque by up to 0.6 %, and the tolerance is 1.7 times that spread.  It runs when
+BALLMILL_PEER_TESTS=1 and takes about three minutes on two cores; asked for without `liggghts`
+on the PATH (Debian: apt-get install liggghts) it fails, since a comparison that was requested
+and could not run is not a pass."""
 
 import os
 import shutil
