@@ -8,6 +8,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from helpers import DRUM_SIM, MATERIALS, PAIRS, small_drum  # importable once the path above is set
 
+from ballmill.dem.runtime import LOCAL_JOBS_ENV
 from ballmill.drum import simulate_drum
 
 pytest_plugins = ["pytester"]  # tests/test_ci_skips.py runs sessions of its own
@@ -42,6 +43,9 @@ class SkipsFailCI:
 
 
 def pytest_configure(config):
+    # a test left to pick its threads (sim.threads=0), and the commands it starts, take this
+    # worker's share of the cores, as a sweep's jobs do: xdist's workers are jobs run at once
+    os.environ.setdefault(LOCAL_JOBS_ENV, os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     if os.environ.get("CI"):
         config.pluginmanager.register(SkipsFailCI(), "skips_fail_ci")
 

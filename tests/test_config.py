@@ -59,6 +59,27 @@ def test_all_cores_are_shared_among_the_jobs_a_sweep_runs_at_once_here(monkeypat
     assert cpu_threads(0) == max(1, cores // 2)
 
 
+def test_a_kernel_that_does_not_compile_is_shown_at_its_line_with_the_fault_marked():
+    """Taichi's excerpt of the faulty line, which the engine's start-up formats only for an error."""
+    import taichi as ti
+
+    from ballmill.dem.runtime import init_taichi
+
+    init_taichi(threads=1)
+    total = ti.field(float, ())
+
+    @ti.kernel
+    def broken():
+        total[None] = undefined_name + 1.0  # noqa: F821
+
+    with pytest.raises(ti.TaichiNameError) as raised:
+        broken()
+    line = next(k for k, text in enumerate(Path(__file__).read_text().splitlines(), 1) if "1.0  # noqa" in text)
+    message = str(raised.value)
+    assert f'File "{__file__}", line {line}, in broken:' in message, message
+    assert "total[None] = undefined_name + 1.0" in message and "^^^^^^^^^^^^^^" in message, message
+
+
 def test_a_sequential_sweep_gives_each_job_every_core_and_a_parallel_one_shares_them(monkeypatch):
     from ballmill.dem.runtime import LOCAL_JOBS_ENV
     from ballmill.jobs import check_jobs

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import os
+import sys
 
 import taichi as ti
+from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
 
 ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda}
 PRECISIONS = {"f64": ti.f64, "f32": ti.f32}
@@ -36,6 +38,7 @@ def init_taichi(arch: str = "cpu", precision: str = "f64", threads: int = 0, see
     }
     if arch == "cpu":
         kwargs["cpu_max_num_threads"] = cpu_threads(threads)
+    ASTTransformerContext.get_pos_info = brief_position
     ti.reset()
     ti.init(**kwargs)
     actual = ti.lang.impl.current_cfg().arch
@@ -43,6 +46,20 @@ def init_taichi(arch: str = "cpu", precision: str = "f64", threads: int = 0, see
         raise RuntimeError(
             "sim.arch=cuda was asked for but Taichi found no CUDA device; use sim.arch=cpu here"
         )
+
+
+FULL_POSITION = ASTTransformerContext.get_pos_info
+
+
+def brief_position(context: ASTTransformerContext, node) -> str:
+    """Where a node of a kernel being compiled stands, as Taichi tags each node: its file, line
+    and function, and, in an error's message, Taichi's excerpt of the line with the node marked.
+    Taichi formats that excerpt (textwrap) for every node, ~0.45 s of a run's ~0.85 s of turning
+    the engine's kernels into Taichi's IR, paid again in every run, since every run restarts
+    Taichi; a run of the small test drum took 3.3 s instead of 3.8 s, its results the same."""
+    if sys.exc_info()[0] is not None:
+        return FULL_POSITION(context, node)
+    return f'File "{context.file}", line {node.lineno + context.lineno_offset}, in {context.func.func.__name__}:\n'
 
 
 def cpu_threads(threads: int) -> int:
