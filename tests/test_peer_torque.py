@@ -4,7 +4,7 @@ here), 1.0014 and 1.0006 on two: the bed's paths are chaotic, so a different dom
 LIGGGHTS's mean torque by up to 0.6 %, and the tolerance is 1.7 times that spread.  Both
 programs run on one core: here, beside the suite's other worker, two MPI ranks poll for each
 other's messages and took 2.6 times the CPU of one rank (197 s against 75 s).  It runs when
-BALLMILL_PEER_TESTS=1 and takes about three minutes; asked for without `liggghts` on the PATH
+BALLMILL_PEER_TESTS=1 and takes about four minutes; asked for without `liggghts` on the PATH
 (Debian: apt-get install liggghts) it fails, since a comparison that was requested and could
 not run is not a pass."""
 
