@@ -13,6 +13,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from ballmill.files import read_parquet
+
 RUN = """
 import logging
 import os
@@ -61,8 +63,8 @@ def test_a_killed_run_resumes_from_its_checkpoint_and_ends_with_identical_tables
     assert not (killed / "checkpoint.npz").exists()  # a finished run leaves none behind
     assert json.loads((killed / "dem_summary.json").read_text()) == json.loads((whole / "dem_summary.json").read_text())
     for table in ("loads", "energy", "collisions"):
-        pd.testing.assert_frame_equal(pd.read_parquet(killed / f"{table}.parquet"),
-                                      pd.read_parquet(whole / f"{table}.parquet"), check_exact=True)
+        pd.testing.assert_frame_equal(read_parquet(killed / f"{table}.parquet"),
+                                      read_parquet(whole / f"{table}.parquet"), check_exact=True)
 
 
 class Planted:

@@ -27,6 +27,7 @@ from ballmill import config
 from ballmill.cli import compose_command, options, scenario_of
 from ballmill.columns import undescribed
 from ballmill.config import walk
+from ballmill.files import read_parquet
 from ballmill.jobs import check_jobs
 from ballmill.reference import HEADER, PAGES, config_groups, unit
 from ballmill.scenario import compose
@@ -254,7 +255,7 @@ def test_the_first_design_tutorial_runs_and_its_record_is_described(tmp_path):
     assert record["status"] == "ok" and record["ballmill_version"] == ballmill.__version__
     assert undescribed("record", record) == []
     for table in ("loads", "energy", "collisions", "trajectories"):
-        assert undescribed(table, pd.read_parquet(tmp_path / record["dem_dir"] / f"{table}.parquet").columns) == []
+        assert undescribed(table, read_parquet(tmp_path / record["dem_dir"] / f"{table}.parquet").columns) == []
     line = re.search(r"^\S*outputs/runs/design/first: power ([0-9.]+) \+- ([0-9.]+) kW \(DEM\), residence time 20 min, "
                      r"yield ([0-9.]+) %", printed[0], re.MULTILINE)
     assert line, printed[0]

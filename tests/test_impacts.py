@@ -3,11 +3,11 @@ drum's energy balance."""
 
 import math
 
-import pandas as pd
 import pytest
 from helpers import DRUM_SIM, run
 from test_contact_physics import STEEL, two_spheres
 
+from ballmill.files import read_parquet
 from ballmill.impacts import energy_spectrum, impact_statistics
 
 
@@ -38,7 +38,7 @@ def test_drum_dissipation_from_the_log_agrees_with_the_drive_power(analytic_drum
     assert summary["ball_ball_collisions_per_s"] > 0 and summary["ball_wall_drum_collisions_per_s"] > 0
     assert summary["ball_ball_impact_energy_p90_j"] > summary["ball_ball_impact_energy_mean_j"]
     assert summary["dissipated_power_from_log_w"] == pytest.approx(summary["power_with_rolling_w"], rel=0.04)
-    energy = pd.read_parquet(folder / "energy.parquet")
+    energy = read_parquet(folder / "energy.parquet")
     window = energy[energy.t_s >= DRUM_SIM.settle_s + DRUM_SIM.steady_after_s].iloc[[0, -1]]
     rate = window.diff().iloc[-1] / window.t_s.diff().iloc[-1]  # W
     dissipated = rate.dissipated_normal_j + rate.dissipated_tangential_j + rate.dissipated_rolling_j

@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 from ballmill.config import MM400Config
+from ballmill.files import read_parquet
 from ballmill.lab import jar_capsule, jar_half_length_m, jar_motion, video_collisions
 
 
@@ -63,4 +64,4 @@ def test_lab_sweep_runs_and_reports(tmp_path):
     assert proc.returncode == 0, proc.stderr[-3000:]
     for ext in ("png", "svg", "md"):
         assert (tmp_path / "report" / f"lab.{ext}").exists()
-    assert len(pd.read_parquet(tmp_path / "report" / "lab_conditions.parquet")) == 4
+    assert len(read_parquet(tmp_path / "report" / "lab_conditions.parquet")) == 4

@@ -12,6 +12,7 @@ from ballmill.config import SimConfig
 from ballmill.dem import Body, Interaction, Material, Plane, SystemSpec
 from ballmill.dem.materials import effective_youngs_modulus
 from ballmill.drum import simulate_drum
+from ballmill.files import read_parquet
 
 STEEL = Material("steel", 7900.0, 77e7, 0.3)  # shear modulus reduced 100x: fewer steps
 BOX = 0.05  # half width of the closed box (m)
@@ -96,7 +97,7 @@ def test_same_seed_same_config_gives_identical_results(tmp_path):
     import pandas as pd
 
     pd.testing.assert_frame_equal(a.results.loads, b.results.loads)
-    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "a/loads.parquet"), b.results.loads)
+    pd.testing.assert_frame_equal(read_parquet(tmp_path / "a/loads.parquet"), b.results.loads)
 
 
 def test_energy_balance_closes_whatever_the_step(tmp_path):
@@ -104,13 +105,12 @@ def test_energy_balance_closes_whatever_the_step(tmp_path):
     contacts book the step's mean force at the half-step velocity, as the integrator applies it,
     so the balance closes to < 0.1 % even at twice the study's step (booking the force at its
     own step left 1-5 %, growing with the step)."""
-    import pandas as pd
 
     residual, rates = {}, {}
     for fraction in (0.4, 0.1):
         sim = replace(SIM, dt_fraction=fraction)
         simulate_drum(small_drum("analytic"), MATERIALS, PAIRS, sim, tmp_path / str(fraction))
-        e = pd.read_parquet(tmp_path / str(fraction) / "energy.parquet")
+        e = read_parquet(tmp_path / str(fraction) / "energy.parquet")
         lost = e.dissipated_normal_j + e.dissipated_tangential_j + e.dissipated_rolling_j
         residual[fraction] = abs(e.residual_j.iloc[-1]) / e.wall_work_j.iloc[-1]
         late = e.t_s > 0.8  # turning steadily: drive power = dissipation rate

@@ -6,10 +6,10 @@ from xml.etree import ElementTree
 
 import meshio
 import numpy as np
-import pandas as pd
 from helpers import DRUM_SIM, MATERIALS, PAIRS, small_drum
 
 from ballmill.drum import drum_mesh, simulate_drum
+from ballmill.files import read_parquet
 from ballmill.liner import liner_profile
 from ballmill.plots import plot_bed, save_figure
 
@@ -35,7 +35,7 @@ def test_vtk_series_holds_the_particles_and_the_turned_drum(tmp_path):
 
 def test_bed_picture_is_drawn_from_the_recorded_instants(analytic_drum_run, tmp_path):
     summary, folder = analytic_drum_run
-    traj = pd.read_parquet(folder / "trajectories.parquet")
+    traj = read_parquet(folder / "trajectories.parquet")
     assert traj.t_s.nunique() == 40  # the snapshots of the averaging window (304 balls: the most)
     drum = small_drum("analytic")
     fig = plot_bed(traj, np.full(summary["balls"], 0.01), liner_profile(drum), summary["speed_rpm"] * math.pi / 30,

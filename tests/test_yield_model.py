@@ -20,6 +20,7 @@ from ballmill import yield_rules
 from ballmill.columns import undescribed
 from ballmill.config import ConfigError, YieldModelConfig
 from ballmill.dose import dose_j_per_kg, dose_rates
+from ballmill.files import read_parquet
 from ballmill.kinetics import FittedCurve
 from ballmill.plots import rule_label
 from ballmill.run import run as run_scenario
@@ -66,11 +67,11 @@ def test_a_head_on_collision_gives_exactly_its_dissipated_energy_as_dose():
 def test_drum_collision_power_equals_the_energy_books_dissipation(analytic_drum_run):
     summary, folder = analytic_drum_run
     after, until = summary["averaging_from_s"], summary["simulated_s"]
-    energy = pd.read_parquet(folder / "energy.parquet").groupby("t_s").sum()
+    energy = read_parquet(folder / "energy.parquet").groupby("t_s").sum()
     lost = energy[[c for c in energy if c.startswith("dissipated_")]].sum(axis=1)
     book_w = (lost.iloc[-1] - lost[lost.index <= after].iloc[-1]) / (until - lost[lost.index <= after].index[-1])
     balls_kg = summary["dissipated_power_from_log_w"] / summary["specific_dissipated_power_w_per_kg"]
-    rates = dose_rates(pd.read_parquet(folder / "collisions.parquet"), after, until, balls_kg, 1e-3)
+    rates = dose_rates(read_parquet(folder / "collisions.parquet"), after, until, balls_kg, 1e-3)
     # the log books a collision's whole loss at its start: edge effects of a 1.3 s window
     assert rates["collision_power_w_per_kg"] * balls_kg == pytest.approx(book_w, rel=0.1)
     assert 0 < rates["collision_power_w_per_kg_se"] < 0.2 * rates["collision_power_w_per_kg"]

@@ -24,7 +24,7 @@ import pandas as pd
 
 from .config import MM400_GEOMETRY, ConfigError, KineticsLabConfig, MM400Config, SimConfig
 from .dose import MEASURES, above_threshold, dose_rates
-from .files import exclusive, read_json, write_atomic, write_json
+from .files import exclusive, read_json, read_parquet, write_atomic, write_json
 from .lab import Condition, jar_ball_mass_kg, jar_inner_length_m, jar_volume_ml, run_mm400, wall_interaction
 from .scenario import Scenario
 from .yields import DoseLine, fit_dose_line
@@ -137,7 +137,7 @@ def condition_rates(folder: Path, threshold_j: float, batches: int) -> dict:
     books.  A rate's standard error is its batch means', or the spread of its starts' rates where
     larger (a ball may slide in place from one start and bounce end to end from another)."""
     meta = read_json(folder / "condition.json")
-    collisions, energy = (pd.read_parquet(folder / f"{n}.parquet") for n in ("collisions", "energy"))
+    collisions, energy = (read_parquet(folder / f"{n}.parquet") for n in ("collisions", "energy"))
     window, mass, starts = (meta["settle_s"], meta["duration_s"]), meta["ball_mass_kg"], meta["starts"]
     pooled = dose_rates(collisions, *window, mass * starts, threshold_j, batches, energy=energy)
     if starts > 1:

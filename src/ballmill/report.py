@@ -21,7 +21,7 @@ from omegaconf import OmegaConf
 from .config import MM400_GEOMETRY, OPTION_GROUPS, ConfigError, RtdConfig, StudyConfig, StudyReport, one_line, to_object
 from .data import table
 from .dose import dose_rates
-from .files import read_json
+from .files import read_json, read_parquet
 from .impacts import energy_spectrum
 from .kinetics import PARAMS, TIME_SPAN, FittedCurve, lab_time_curves, rtd_table
 from .plots import (
@@ -148,7 +148,7 @@ def impact_lines(name: str, ok: pd.DataFrame, spec: StudyReport, out_dir: Path) 
         path = Path(str(rec.get("dem_dir", ""))) / "collisions.parquet"
         if path.exists():
             after = rec.get("dem_averaging_from_s", 0.0)
-            spectra.append(energy_spectrum(pd.read_parquet(path), after).assign(case=case_label(rec)))
+            spectra.append(energy_spectrum(read_parquet(path), after).assign(case=case_label(rec)))
     if not spectra:
         return []
     table = pd.concat(spectra, ignore_index=True)
@@ -222,8 +222,8 @@ def mechanics_lines(name: str, ok: pd.DataFrame, seed: pd.Series, out_dir: Path)
     conds = pd.read_csv(folder / "conditions.csv")
     lab_dir = Path(conds[conds.nominal].iloc[0].lab_dem_dir)
     meta = read_json(lab_dir / "condition.json")
-    lab_log = pd.read_parquet(lab_dir / "collisions.parquet")
-    mill_log = pd.read_parquet(Path(seed.dem_dir) / "collisions.parquet")
+    lab_log = read_parquet(lab_dir / "collisions.parquet")
+    mill_log = read_parquet(Path(seed.dem_dir) / "collisions.parquet")
     thresholds = sorted(ok.impact_threshold_j[ok.yield_rule == "impact_threshold"].unique())
     pet_fraction_lab = pet_fraction(read_json(folder / "calibration.json")["lab"]["bpr_basis"],
                                     seed.naoh_feed_kg_per_h / seed.pet_feed_kg_per_h)
@@ -644,7 +644,7 @@ def report(sweep_dir: Path, out_dir: Path) -> Path:
 
 def finished(out_dir: Path, name: str) -> pd.DataFrame:
     """The finished runs of a report in out_dir (its <name>.parquet)."""
-    df = pd.read_parquet(out_dir / f"{name}.parquet")
+    df = read_parquet(out_dir / f"{name}.parquet")
     return df[df.status == "ok"]
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..files import write_atomic
+from ..files import read_parquet, write_atomic
 
 TABLES = ("loads", "energy", "collisions", "trajectories")
 
@@ -38,7 +38,7 @@ class Results:
     @classmethod
     def read(cls, folder: str | Path) -> Results:
         """The tables a ParquetSink wrote into folder."""
-        return cls(**{name: pd.read_parquet(Path(folder) / f"{name}.parquet") for name in TABLES})
+        return cls(**{name: read_parquet(Path(folder) / f"{name}.parquet") for name in TABLES})
 
     def mean_power_w(self, body: str, after_s: float = 0.0, rolling: bool = False, blocks: int = 10):
         """Mean power (W) delivered by `body` after `after_s`, with its standard error from
