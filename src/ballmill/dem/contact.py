@@ -10,6 +10,7 @@ import numpy as np
 import taichi as ti
 
 from .materials import damping_ratio_for_restitution, effective_shear_modulus, effective_youngs_modulus
+from .transfer import write_fields
 
 SQRT_5_6 = 0.9128709291752769  # sqrt(5/6), EDEM damping prefactor
 
@@ -26,8 +27,6 @@ class PairTables:
         self.zeta = ti.field(float, (r, m, m))
         self.mu_s = ti.field(float, (r, m, m))
         self.mu_r = ti.field(float, (r, m, m))
-        self.e_star.from_numpy(np.array([[effective_youngs_modulus(a, b) for b in mats] for a in mats]))
-        self.g_star.from_numpy(np.array([[effective_shear_modulus(a, b) for b in mats] for a in mats]))
         zeta, mu_s, mu_r = (np.zeros((r, m, m)) for _ in range(3))
         particle_mats = set(np.unique(spec.material).tolist())
         for rep in range(r):
@@ -39,9 +38,9 @@ class PairTables:
                     zeta[rep, a, b] = damping_ratio_for_restitution(pair.restitution)
                     mu_s[rep, a, b] = pair.static_friction
                     mu_r[rep, a, b] = pair.rolling_friction
-        self.zeta.from_numpy(zeta)
-        self.mu_s.from_numpy(mu_s)
-        self.mu_r.from_numpy(mu_r)
+        write_fields([(self.e_star, np.array([[effective_youngs_modulus(a, b) for b in mats] for a in mats])),
+                      (self.g_star, np.array([[effective_shear_modulus(a, b) for b in mats] for a in mats])),
+                      (self.zeta, zeta), (self.mu_s, mu_s), (self.mu_r, mu_r)])
 
     @ti.func
     def law(self, r, ma, mb, delta, n, v_rel, xi, m_eff, r_eff, dt):

@@ -9,6 +9,9 @@ import math
 
 import numpy as np
 import taichi as ti
+from taichi.lang.util import to_numpy_type
+
+from .transfer import write_fields
 
 
 @ti.data_oriented
@@ -43,9 +46,8 @@ class Motions:
                 rows["omega"][rep, k], rows["amp"][rep, k] = m.angular_velocity_rad_per_s, m.angle_amplitude_rad
                 rows["freq"][rep, k], rows["phase"][rep, k] = m.frequency_hz, m.phase_rad
                 rows["start"][rep, k] = m.start_time_s
-        for name, values in rows.items():
-            getattr(self, name).from_numpy(values)
-        self.axis_np = self.axis.to_numpy()  # (replicas, bodies, 3) world motion axes (constant)
+        write_fields([(getattr(self, name), values) for name, values in rows.items()])
+        self.axis_np = rows["axis"].astype(to_numpy_type(self.axis.dtype))  # (replicas, bodies, 3) world axes (constant)
 
     @ti.func
     def pose(self, r, b, t_abs):

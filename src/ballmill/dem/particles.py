@@ -10,6 +10,7 @@ import numpy as np
 import taichi as ti
 
 from .layout import records
+from .transfer import write_fields
 
 
 def capacity(n: int) -> int:
@@ -57,15 +58,13 @@ class Particles:
         self.domain_hi = ti.Vector.field(3, float, ())
         density = np.array([spec.materials[m].density_kg_per_m3 for m in spec.material_names])[spec.material]
         self.mass_np = density * 4.0 / 3.0 * math.pi * spec.radius_m**3
-        for field, values in ((self.x, spec.position_m), (self.v, spec.velocity_m_per_s),
-                              (self.w, spec.angular_velocity_rad_per_s), (self.rad, spec.radius_m),
-                              (self.mass, self.mass_np), (self.inertia, 0.4 * self.mass_np * spec.radius_m**2),
-                              (self.mat, spec.material.astype(np.int32)), (self.rep, spec.replica.astype(np.int32))):
-            field.from_numpy(padded(values, cap))
-        self.live[None] = self.n
         ends = np.cumsum(counts)
-        self.rep_start.from_numpy((ends - counts).astype(np.int32))
-        self.rep_end.from_numpy(ends.astype(np.int32))
+        write_fields([*((field, padded(values, cap)) for field, values in (
+            (self.x, spec.position_m), (self.v, spec.velocity_m_per_s), (self.w, spec.angular_velocity_rad_per_s),
+            (self.rad, spec.radius_m), (self.mass, self.mass_np), (self.inertia, 0.4 * self.mass_np * spec.radius_m**2),
+            (self.mat, spec.material.astype(np.int32)), (self.rep, spec.replica.astype(np.int32)))),
+            (self.rep_start, (ends - counts).astype(np.int32)), (self.rep_end, ends.astype(np.int32))])
+        self.live[None] = self.n
         self.gravity[None] = spec.gravity_m_per_s2
         self.domain_lo[None], self.domain_hi[None] = spec.domain_lo_m, spec.domain_hi_m
 

@@ -24,6 +24,7 @@ from .geometry import CAPSULE, CYLINDER, PLANE, Capsule, Cylinder, Mesh, Plane
 from .layout import records
 from .monitor import WALL_CONTACTS
 from .motion import unit
+from .transfer import write_fields
 
 MESH_CELLS_PER_SIDE = 64  # a mesh's bounding box is binned into at most this many cells per side
 EDGE_SLOTS = 4  # edge/vertex contacts of one ball with one mesh, in distinct directions
@@ -142,13 +143,10 @@ class Walls:
             cell0 += len(cells)
         self.mc_start = ti.field(ti.i32, len(starts))
         self.mc_tris = ti.field(ti.i32, max(len(ids), 1))
-        self.mc_start.from_numpy(np.array(starts, dtype=np.int32))
-        if ids:
-            self.mc_tris.from_numpy(np.array(ids, dtype=np.int32))
-        if self.n_tri:
-            self.t_corner.from_numpy(tris)
-            self.t_body.from_numpy(np.array(tri_body, dtype=np.int32))
-            self.t_mat.from_numpy(np.array(tri_mat, dtype=np.int32))
+        write_fields([(self.mc_start, np.array(starts, dtype=np.int32)),
+                      *([(self.mc_tris, np.array(ids, dtype=np.int32))] if ids else []),
+                      *([(self.t_corner, tris), (self.t_body, np.array(tri_body, dtype=np.int32)),
+                         (self.t_mat, np.array(tri_mat, dtype=np.int32))] if self.n_tri else [])])
 
     # ---------------------------------------------------------------- history slots
     @ti.func
