@@ -17,7 +17,7 @@ from ballmill.plant.correlations import price
 from ballmill.plant.model import plant
 from ballmill.plant.options import options_table, pareto_front
 from ballmill.plant.regional import hauled
-from ballmill.plant.study import variants
+from ballmill.plant.study import CONFIG_VARIANTS, TEA_FIELDS, variants
 from ballmill.plant.system import MillSpec, fresh_pet_kg_per_h
 from ballmill.plant.units import VapourFraction
 from ballmill.plant.what_it_takes import bands, break_even
@@ -270,8 +270,12 @@ def test_variants_undo_one_choice_each(built):
     virgin_eg = plant(MILL, replace(PlantConfig(), eg_price_fraction=1.0), ECON, name="virgin_eg").evaluate()
     assert v.loc["EG credited at the virgin price", "msp_usd_per_kg"] == pytest.approx(virgin_eg["msp_usd_per_kg"],
                                                                                        rel=1e-9)
-    fixed = plant(MILL, replace(PlantConfig(), staffing="fixed", staff=20), ECON, name="fixed").evaluate()
-    assert v.loc["20 staff at every scale", "msp_usd_per_kg"] == pytest.approx(fixed["msp_usd_per_kg"], rel=1e-9)
+    # those the built plant prices with a TEA of its own: each the plant rebuilt with that choice
+    for name, change in ((n, c) for n, c in CONFIG_VARIANTS.items() if not callable(c) and set(c) <= TEA_FIELDS):
+        rebuilt = plant(MILL, replace(PlantConfig(), **change), ECON, name="rebuilt").evaluate()
+        assert v.loc[name, ["msp_usd_per_kg", "gwp_kg_per_kg"]].tolist() == pytest.approx(
+            [rebuilt["msp_usd_per_kg"], rebuilt["gwp_kg_per_kg"]], rel=1e-9), name
+    assert "20 staff at every scale" in v.index and len(v) == 1 + len(CONFIG_VARIANTS) + 5
     assert v.loc["base", "msp_usd_per_kg"] == pytest.approx(built.base["msp_usd_per_kg"], rel=1e-9)
     assert np.isfinite(v.msp_usd_per_kg).all() and np.isfinite(v.gwp_kg_per_kg).all()
 

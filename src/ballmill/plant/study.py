@@ -21,7 +21,7 @@ from .correlations import price
 from .model import Plant, plant
 from .options import options_table
 from .system import MillSpec
-from .tea import cepci
+from .tea import PlantTEA, cepci
 from .what_it_takes import bands, break_even, virgin
 
 log = logging.getLogger(__name__)
@@ -30,10 +30,13 @@ BAND = (5, 50, 95)  # percentiles of the Monte Carlo reported beside the base va
 
 def variants(p: Plant) -> pd.DataFrame:
     """The MSP and footprint with one modelling choice undone (or one option taken) at a time:
-    what each moves.  A choice of the config rebuilds the plant; the evaporator's pricing varies
+    what each moves.  A choice of the config rebuilds the plant, or, where only the TEA reads it
+    (TEA_FIELDS), prices the built plant with a TEA of its own; the evaporator's pricing varies
     the built plant (restored after); the footprint's boundary and the wastewater's CO2 are read
     from the base's breakdown."""
     cfg, base = p.cfg, p.evaluate()
+    priced = {name: own_tea(p, change) for name, change in CONFIG_VARIANTS.items()
+              if not callable(change) and set(change) <= TEA_FIELDS}
     evap = p.ps.units["E401"]
     bodies = evap.baseline_purchase_costs["Evaporators"] / evap.cost_factor
     total = sum(evap.baseline_purchase_costs.values()) / evap.cost_factor
@@ -47,7 +50,8 @@ def variants(p: Plant) -> pd.DataFrame:
         evap.cost_factor = saved
     for name, change in CONFIG_VARIANTS.items():
         kw = change(p.prices) if callable(change) else change
-        rows.append({"variant": name, **plant(p.mill, replace(cfg, **kw), p.econ, p.region, name="variant").evaluate()})
+        rows.append({"variant": name, **(priced[name] if name in priced else
+                                         plant(p.mill, replace(cfg, **kw), p.econ, p.region, name="variant").evaluate())})
     record = p.record(p.evaluate()["msp_usd_per_kg"])
     rows += [{"variant": "fossil CO2 of the oxidised wastewater organics left out", **base,
               "gwp_kg_per_kg": base["gwp_kg_per_kg"] - record["gwp_treatment_co2_kg_per_kg"]},
@@ -61,6 +65,19 @@ def variants(p: Plant) -> pd.DataFrame:
     return out
 
 
+def own_tea(p: Plant, change: dict) -> dict[str, float]:
+    """The MSP of the simulated plant `p` priced by a TEA with `change` made to its config (fields
+    of TEA_FIELDS only), and its footprint (which no TEA field moves); p keeps its own TEA."""
+    tea = PlantTEA(p.ps.system, replace(p.cfg, **change), p.econ.hours_per_year, p.cfg.cost_year)
+    try:
+        return {"msp_usd_per_kg": tea.solve_price(p.rtpa), "gwp_kg_per_kg": p.footprint()["total"]}
+    finally:
+        p.ps.system._TEA = p.tea  # BioSTEAM points a system at its newest TEA
+
+
+# the plant config's fields read by its TEA alone (tea.py), not by the units or the footprint
+TEA_FIELDS = frozenset({"staffing", "staff", "maintenance_basis", "maintenance_fraction", "contingency",
+                        "working_capital_fraction", "startup_months", "loan_fraction"})
 # variant -> the plant config's fields it changes (or a function of the prices, $/kg, giving them)
 CONFIG_VARIANTS = {
     "EG stripper recovering 69 % (V summed over the salts too)": {"eg_stripper_recovery": 0.6933},
