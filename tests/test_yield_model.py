@@ -6,6 +6,7 @@ import json
 import logging
 import math
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,7 @@ from scipy.optimize import brentq
 from scipy.special import gammaincc
 from test_contact_physics import STEEL, two_spheres
 
-from ballmill import yield_rules
+from ballmill import lab_dose, yield_rules
 from ballmill.columns import undescribed
 from ballmill.config import ConfigError, YieldModelConfig
 from ballmill.dose import dose_j_per_kg, dose_rates
@@ -39,7 +40,7 @@ from ballmill.yields import (
 
 MODEL = YieldModelConfig()
 STOICHIOMETRIC = stoichiometric_naoh_per_pet()  # kg NaOH per kg PET
-LAB = ["yield_model.lab.duration_s=0.8", "yield_model.lab.settle_s=0.2", "yield_model.lab.frequencies_hz=[30]",
+LAB = ["yield_model.lab.duration_s=1.0", "yield_model.lab.settle_s=0.5", "yield_model.lab.frequencies_hz=[30]",
        "yield_model.lab.ball_diameters_m=[0.0206]", "yield_model.lab.jar_inner_diameters_m=[0.028]",
        "yield_model.lab.jar_inner_lengths_m=[0.05]", "yield_model.lab.starts=2"]
 # A small feed (100 kg/h: tens to hundreds of balls) at sim=test, whose soft balls overlap more in
@@ -232,6 +233,27 @@ def test_a_new_yield_rule_is_one_registry_entry(calibrated, tmp_path, monkeypatc
     assert rule_label(record) == "impact_count 10 mJ"
     with pytest.raises(ConfigError, match=r"dem=surrogate: yield_model.rule=impact_count needs the impact spectrum"):
         plan(load(compose("config", [*overrides, "dem=surrogate"])))
+
+
+def test_a_lab_run_sampled_where_the_kinetics_read_it_books_what_the_camera_rate_run_does(tmp_path, monkeypatch):
+    """The energy rules' lab runs sample only at multiples of the frames the kinetics read (the
+    settling's end and the run's): the collision log and the rates are those of the same run
+    sampled at every camera frame, bit for bit."""
+    s = load(compose("config", [f"cache_dir={tmp_path}", *LAB, "yield_model.lab.starts=1"]))
+    c = lab_dose.nominal_condition(s)
+    jar = c.jar(s.lab, s.yield_model.lab)
+    assert lab_dose.frames_per_sample(jar) == 1067  # 0.5 s at 2,134 frames/s: the settling, half the run
+    assert lab_dose.frames_per_sample(replace(jar, settle_s=0.2, duration_s=0.8)) == 1  # frames 427 and 1707
+    assert lab_dose.frames_per_sample(replace(jar, settle_s=0.0)) == 1  # the first frame, then
+    lab_dose.simulate_condition(c, tmp_path / "sampled", s)
+    monkeypatch.setattr(lab_dose, "frames_per_sample", lambda jar: 1)
+    lab_dose.simulate_condition(c, tmp_path / "every_frame", s)
+    sampled, every = (read_parquet(tmp_path / name / "energy.parquet") for name in ("sampled", "every_frame"))
+    assert (len(sampled), len(every)) == (2, 2134)
+    pd.testing.assert_frame_equal(*(read_parquet(tmp_path / name / "collisions.parquet")
+                                    for name in ("sampled", "every_frame")), check_exact=True)
+    assert lab_dose.condition_rates(tmp_path / "sampled", 0.0, 10) == lab_dose.condition_rates(
+        tmp_path / "every_frame", 0.0, 10)
 
 
 def test_an_energy_rule_runs_its_missing_lab_calibration_first_and_once(tmp_path, caplog):

@@ -130,14 +130,16 @@ def mm400_spec(cfg: MM400Config, conds: list[Condition], materials, interactions
 
 
 def run_mm400(cfg: MM400Config, conds: list[Condition], materials, interactions: dict[str, InteractionConfig],
-              sim: SimConfig) -> Results:
-    """Run every condition (a replica each) for cfg.duration_s, sampling at the camera rate."""
+              sim: SimConfig, frames_per_sample: int = 1) -> Results:
+    """Run every condition (a replica each) for cfg.duration_s, sampling every `frames_per_sample`
+    camera frames (the time step, a whole number of steps per frame, and so every result but the
+    samples' own tables are the same whatever the sampling)."""
     spec = mm400_spec(cfg, conds, materials, interactions, sim)
     frame = 1.0 / cfg.camera_fps
     dt = frame / math.ceil(frame / time_step_s(spec, sim))  # a whole number of steps per camera frame
     init_taichi(sim.arch, sim.precision, sim.threads, sim.seed)
     engine = Engine(spec, engine_options(sim, dt))
-    return engine.run(cfg.duration_s, frame, Recorder(engine, trajectory_every=1), label="mm400")
+    return engine.run(cfg.duration_s, frame * frames_per_sample, Recorder(engine, trajectory_every=1), label="mm400")
 
 
 def simulate_mm400(cfg: MM400Config, conds: list[Condition], materials, interactions: dict[str, InteractionConfig],

@@ -15,6 +15,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import math
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -122,13 +123,22 @@ def simulate_condition(c: LabCondition, folder: Path, s: Scenario) -> None:
     pair = wall_interaction(s.interactions, jar)
     runs = [Condition(c.frequency_hz, c.ball_diameter_m, pair.restitution, pair.static_friction, start)
             for start in range(k.starts)]
-    res = run_mm400(jar, runs, s.materials, s.interactions, lab_sim(s.sim))
+    res = run_mm400(jar, runs, s.materials, s.interactions, lab_sim(s.sim), frames_per_sample(jar))
     for name, frame in (("collisions", res.collisions), ("energy", res.energy)):
         write_atomic(folder / f"{name}.parquet", lambda tmp, f=frame: f.to_parquet(tmp, index=False))
     write_json(folder / "condition.json", {"key": condition_key(c, s), "condition": asdict(c), "starts": k.starts,
                                            "settle_s": k.settle_s, "duration_s": k.duration_s,
                                            "ball_mass_kg": jar_ball_mass_kg(jar, c.ball_diameter_m, s.materials),
                                            "sim": asdict(lab_sim(s.sim))})
+
+
+def frames_per_sample(jar: MM400Config) -> int:
+    """The longest sampling, in camera frames, that keeps the samples booked_j reads: the frames
+    nearest the settling's end (the first, for none) and the run's end.  The kinetics read only
+    the collision log and those two samples, so that a run sampled at the camera rate (6,000
+    samples for 3 s) spent most of its time reading samples, not stepping."""
+    settle, end = (round(t * jar.camera_fps) for t in (jar.settle_s, jar.duration_s))
+    return math.gcd(max(settle, 1), max(end, 1))
 
 
 def condition_rates(folder: Path, threshold_j: float, batches: int) -> dict:
