@@ -132,8 +132,8 @@ def mm400_spec(cfg: MM400Config, conds: list[Condition], materials, interactions
 def run_mm400(cfg: MM400Config, conds: list[Condition], materials, interactions: dict[str, InteractionConfig],
               sim: SimConfig, frames_per_sample: int = 1) -> Results:
     """Run every condition (a replica each) for cfg.duration_s, sampling every `frames_per_sample`
-    camera frames (the time step, a whole number of steps per frame, and so every result but the
-    samples' own tables are the same whatever the sampling)."""
+    camera frames.  The time step fits a whole number of times in a frame whatever the sampling,
+    so only the samples' own tables (trajectories, energy, loads) depend on it."""
     spec = mm400_spec(cfg, conds, materials, interactions, sim)
     frame = 1.0 / cfg.camera_fps
     dt = frame / math.ceil(frame / time_step_s(spec, sim))  # a whole number of steps per camera frame

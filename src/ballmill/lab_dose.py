@@ -135,8 +135,8 @@ def simulate_condition(c: LabCondition, folder: Path, s: Scenario) -> None:
 def frames_per_sample(jar: MM400Config) -> int:
     """The longest sampling, in camera frames, that keeps the samples booked_j reads: the frames
     nearest the settling's end (the first, for none) and the run's end.  The kinetics read only
-    the collision log and those two samples, so that a run sampled at the camera rate (6,000
-    samples for 3 s) spent most of its time reading samples, not stepping."""
+    the collision log and those two samples; at the camera rate (6,402 samples for 3 s) a run
+    spends most of its time reading samples, not stepping."""
     settle, end = (round(t * jar.camera_fps) for t in (jar.settle_s, jar.duration_s))
     return math.gcd(max(settle, 1), max(end, 1))
 
