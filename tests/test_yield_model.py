@@ -245,6 +245,7 @@ def test_a_lab_run_sampled_where_the_kinetics_read_it_books_what_the_camera_rate
     assert lab_dose.frames_per_sample(jar) == 1067  # 0.5 s at 2,134 frames/s: the settling, half the run
     assert lab_dose.frames_per_sample(replace(jar, settle_s=0.2, duration_s=0.8)) == 1  # frames 427 and 1707
     assert lab_dose.frames_per_sample(replace(jar, settle_s=0.0)) == 1  # the first frame, then
+    assert lab_dose.frames_per_sample(replace(jar, settle_s=0.25)) == 1  # 533.5 frames: 533 and 534 kept
     lab_dose.simulate_condition(c, tmp_path / "sampled", s)
     monkeypatch.setattr(lab_dose, "frames_per_sample", lambda jar: 1)
     lab_dose.simulate_condition(c, tmp_path / "every_frame", s)

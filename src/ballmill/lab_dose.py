@@ -136,9 +136,14 @@ def frames_per_sample(jar: MM400Config) -> int:
     """The longest sampling, in camera frames, that keeps the samples booked_j reads: the frames
     nearest the settling's end (the first, for none) and the run's end.  The kinetics read only
     the collision log and those two samples; at the camera rate (6,402 samples for 3 s) a run
-    spends most of its time reading samples, not stepping."""
-    settle, end = (round(t * jar.camera_fps) for t in (jar.settle_s, jar.duration_s))
-    return math.gcd(max(settle, 1), max(end, 1))
+    spends most of its time reading samples, not stepping.  A time halfway between two frames
+    keeps both (which one is nearer is then the round-off's to decide)."""
+    frames = []
+    for t in (jar.settle_s, jar.duration_s):
+        x = t * jar.camera_fps
+        below = math.floor(x)
+        frames += [below, below + 1] if abs(x - below - 0.5) < 1e-6 else [round(x)]
+    return math.gcd(*(max(f, 1) for f in frames))
 
 
 def condition_rates(folder: Path, threshold_j: float, batches: int) -> dict:
