@@ -106,9 +106,10 @@ def reproduce() -> None:
 
 def test() -> None:
     """The suite, one worker per core (pytest-xdist), each test file whole on one worker so that
-    its module fixtures are built once."""
+    its module fixtures are built once, the files handed out in collection order (the longest
+    first: tests/conftest.py)."""
     sh(str(BIN / "python"), "-m", "pytest", "-q", "-ra", "--durations=15", "-n", "auto", "--dist", "loadfile",
-       *sys.argv[2:])
+       "--no-loadscope-reorder", *sys.argv[2:])
 
 
 if __name__ == "__main__":

@@ -42,6 +42,22 @@ class SkipsFailCI:
                                         red=True)
 
 
+# The test files that take longest on 2 cores (the suite's --durations, commit 9692359: 250-380 s for
+# the first two, 40-210 s for the rest), longest first.  The workers take whole files in
+# collection order (tasks.py test: --no-loadscope-reorder), so these start first and the two
+# workers end together whatever the draw; xdist's own order, files with the most tests first, once
+# started the LIGGGHTS comparison's 250 s when a worker had 760 s behind it, and that worker ended
+# 126 s after the other (another time 2 s: the suite took 952.8 s, this order 949.9 s, ends 11 s apart).
+LONGEST_FIRST = ("test_commands.py", "test_peer_torque.py", "test_sweeps.py", "test_docs.py", "test_launchers.py",
+                 "test_bad_input.py", "test_checkpoint.py", "test_kinetics.py", "test_yield_model.py",
+                 "test_neighbour_list.py", "test_calibrate.py", "test_install.py", "test_plant.py")
+
+
+def pytest_collection_modifyitems(items):
+    rank = {name: k for k, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: the rest as collected
+
+
 def pytest_configure(config):
     # a test left to pick its threads (sim.threads=0), and the commands it starts, take this
     # worker's share of the cores, as a sweep's jobs do: xdist's workers are jobs run at once
