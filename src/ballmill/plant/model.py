@@ -56,6 +56,10 @@ class Plant:
             warnings.simplefilter("always")
             self.ps.system.simulate()
         self.warnings = sorted({str(w.message).replace("\x1b", "") for w in caught})
+        return self.indicators()
+
+    def indicators(self) -> dict[str, float]:
+        """The MSP ($/kg rTPA) and the footprint (kg CO2e/kg rTPA) of the last simulation."""
         return {"msp_usd_per_kg": self.tea.solve_price(self.rtpa), "gwp_kg_per_kg": self.footprint()["total"]}
 
     def footprint(self) -> dict[str, float]:

@@ -122,7 +122,6 @@ def run(mill: MillSpec, cfg, econ, region: str | None, power_se_kw: float, out_d
         takes = None
         if cfg.what_it_takes:
             own = plant(mill, cfg, econ, region, name="what_it_takes")  # its levers leave the base plant as it is
-            own.evaluate()
             takes = break_even(own, cfg.what_it_takes, cfg.what_it_takes_span)
         if cfg.options_front:
             front_started = time.perf_counter()

@@ -52,17 +52,21 @@ def break_even(p: Plant, levers: list[str], span: float) -> pd.DataFrame:
     """Per lever: its base, the value giving MSP = virgin TPA's price ($/kg) and the one giving
     footprint = virgin PTA's (kg CO2e/kg), each searched over search_range narrowed to where the
     plant can be solved (searched_low, searched_high); NaN where the target is not crossed there
-    (the lever alone cannot reach it)."""
+    (the lever alone cannot reach it).  A lever read after the simulation (a price, a rate, a
+    footprint factor: uncertainty.read_after_simulation) is searched on the base simulation, not
+    simulated again; those levers go first, while the plant is still at its base."""
     known = uncertainty.setters(p, 0.0)
     targets = virgin(p)
-    rows = []
-    for lever in levers:
+    rows = {}
+    p.evaluate()
+    for lever in sorted(levers, key=lambda name: not uncertainty.read_after_simulation(name)):
         base, set_ = known[lever]
+        evaluate = p.indicators if uncertainty.read_after_simulation(lever) else p.evaluate
 
-        def indicators(v: float, set_=set_) -> dict:
+        def indicators(v: float, set_=set_, evaluate=evaluate) -> dict:
             set_(v)
             try:
-                return p.evaluate()
+                return evaluate()
             except UNSOLVABLE:
                 p.ps.system.empty_recycles()
                 raise
@@ -81,9 +85,9 @@ def break_even(p: Plant, levers: list[str], span: float) -> pd.DataFrame:
                     pass
             row[f"{indicator.split('_')[0]}_break_even"] = root
         set_(base)
-        rows.append(row)
+        rows[lever] = row
     p.evaluate()
-    out = pd.DataFrame(rows)
+    out = pd.DataFrame([rows[lever] for lever in levers])
     out["msp_break_even_over_base"] = out.msp_break_even / out.base
     out["gwp_break_even_over_base"] = out.gwp_break_even / out.base
     return out
