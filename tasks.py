@@ -94,10 +94,10 @@ def reproduce() -> None:
            f"study.observations={cal}/observations.csv", tag=tag, env=env)
 
     # Largest first (one-core seconds in a reproduce run, each command's start included: plant per
-    # state ~480 with its options' fronts, BPR plant ~260, Figure 4 ~190, lab chain ~130, shape rule
-    # ~120, Figure 3b ~50, stiffness ~30, MM400 geometry ~25, regional plant ~15), so that the two streams end together.
-    # The paper's mills at steel stiffness (sim=paper); the plants' recycle mills at the default preset, whose
-    # power is within 1 % of steel's: it moves their MSP by under 0.01 % (docs/explanation/plant.md).
+    # state ~400 with its options' fronts, Figure 4 ~230, BPR plant ~190, lab chain ~145, shape rule
+    # ~130, Figure 3b ~50, stiffness ~30, MM400 geometry ~25, regional plant ~15), so that the two streams
+    # end together.  The paper's mills at steel stiffness (sim=paper); the plants' recycle mills at the
+    # default preset, whose power is within 2 % of steel's: it moves their MSP by under 0.01 %.
     in_two_streams([sweep("plant_states"), sweep("fig4", f"sim={sim}"), sweep("plant"),
                     ("lab", lab_chain), sweep("shape_rule", f"sim={sim}"), sweep("fig3b", f"sim={sim}"),
                     sweep("stiffness"), sweep("mm400_geometry"), sweep("regional")])
