@@ -5,6 +5,7 @@ Each creates .venv (once), installs the package with what it needs, then runs.
 
 import json
 import os
+import queue
 import subprocess
 import sys
 import venv
@@ -17,18 +18,10 @@ VENV = ROOT / ".venv"
 BIN = VENV / ("Scripts" if os.name == "nt" else "bin")
 
 
-def sh(*cmd: str, tag: str = "", env: dict | None = None) -> None:
-    """Run cmd in the project root; with a tag, each output line is printed behind it."""
-    print(f"{f'[{tag}] ' if tag else ''}+ {' '.join(cmd)}", flush=True)
-    if not tag:
-        subprocess.run(cmd, cwd=ROOT, check=True, env=env)
-        return
-    with subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                          bufsize=1) as proc:
-        for line in proc.stdout:
-            print(f"[{tag}] {line}", end="", flush=True)
-    if proc.returncode:
-        raise subprocess.CalledProcessError(proc.returncode, cmd)
+def sh(*cmd: str) -> None:
+    """Run cmd in the project root."""
+    print(f"+ {' '.join(cmd)}", flush=True)
+    subprocess.run(cmd, cwd=ROOT, check=True)
 
 
 def install(extras: str) -> None:
@@ -38,32 +31,93 @@ def install(extras: str) -> None:
     sh(str(BIN / "python"), "-m", "pip", "install", "-q", "--disable-pip-version-check", "-e", f".{extras}")
 
 
-def in_two_streams(units: list[tuple[str, Callable[[str, dict], None]]]) -> None:
-    """Run the units (name, function of tag and environment) two at a time, in list order, each on
-    one core: its sweeps' jobs one after another in one process (Hydra's basic launcher; every
-    sweep file sets sim.threads=1), and BALLMILL_LOCAL_JOBS=2 so that a command left to pick its
-    threads (render, calibrate) takes one.  Two one-core streams keep both cores busy where one
-    two-job sweep at a time would leave one idle while its last job runs and while the next sweep
-    starts.  After a failure no further unit starts."""
+# A stream's process: `ballmill ARGS` for each JSON list of ARGS on its input, then DONE and the exit status.
+DONE = "\x00ballmill exited "
+RUNNER = f"""
+import json, sys, traceback
+from ballmill.cli import main
+for line in sys.stdin:
+    try:
+        main(json.loads(line))
+        status = 0
+    except SystemExit as exc:
+        status = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    except Exception:
+        traceback.print_exc()
+        status = 1
+    print({DONE!r} + str(status), flush=True)
+"""
+
+
+class Runner:
+    """One process that runs the ballmill commands it is given one after another, each line of
+    their output printed behind its unit's tag: ballmill, BioSTEAM and Taichi are imported once
+    per stream instead of once per command (2-9 s each)."""
+
+    def __init__(self, env: dict):
+        self.proc = subprocess.Popen([str(BIN / "python"), "-u", "-c", RUNNER], cwd=ROOT, env=env, text=True,
+                                     bufsize=1, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+
+    def __call__(self, tag: str, *args: str) -> None:
+        print(f"[{tag}] + ballmill {' '.join(args)}", flush=True)
+        self.proc.stdin.write(json.dumps(args) + "\n")
+        self.proc.stdin.flush()
+        status = None
+        for line in self.proc.stdout:
+            head, done, tail = line.partition(DONE)
+            if head.strip():
+                print(f"[{tag}] {head.rstrip()}", flush=True)
+            if done:
+                status = int(tail)
+                break
+        if status != 0:  # None: the process died
+            raise subprocess.CalledProcessError(-1 if status is None else status, ["ballmill", *args])
+
+    def close(self) -> None:
+        self.proc.stdin.close()
+        self.proc.wait()
+
+
+def in_two_streams(units: list[tuple[str, Callable[[Callable[..., None]], None]]], last=None, start=Runner) -> None:
+    """Run the units (name, function of a `ballmill(*args)` runner) two at a time, in list order, each
+    on one core, then `last` (name, unit) in one of the two: each stream one ballmill process
+    (`start(env)`, Runner) running its units' commands one after another, each sweep's jobs one
+    after another (Hydra's basic launcher; every sweep file sets sim.threads=1), with
+    BALLMILL_LOCAL_JOBS=2 so that a command left to pick its threads (render, calibrate) takes one.
+    Two one-core streams keep both cores busy where one two-job sweep at a time would leave one
+    idle while its last job runs and while the next sweep starts.  After a failure no further unit
+    starts."""
     env = {**os.environ, "BALLMILL_LOCAL_JOBS": "2"}
     failed: list[str] = []
+    idle, started = queue.SimpleQueue(), []
 
     def run(name, unit):
         if failed:
             return
         try:
-            unit(name, env)
+            runner = idle.get_nowait()
+        except queue.Empty:
+            runner = start(env)
+            started.append(runner)
+        try:
+            unit(lambda *args: runner(name, *args))
         except subprocess.CalledProcessError as exc:
             failed.append(f"{name}: {' '.join(map(str, exc.cmd))} exited with {exc.returncode}")
+        finally:
+            idle.put(runner)
 
     pool = ThreadPoolExecutor(max_workers=2)
     try:
         for future in [pool.submit(run, name, unit) for name, unit in units]:
             future.result()
+        if last is not None:
+            run(*last)
     except KeyboardInterrupt:
         failed.append("interrupted")
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+        for runner in started:
+            runner.close()
     if failed:
         sys.exit("reproduce stopped (finished results are kept; run it again to resume): " + "; ".join(failed))
 
@@ -72,27 +126,28 @@ def reproduce() -> None:
     """The paper's results into outputs/report: Figures 3b and 4 at full stiffness, the whole
     plant around them (MSP against BPR and per state), the shape-rule and stiffness studies,
     and the lab chain (film -> track -> calibrate -> Figure 3a)."""
-    ballmill = str(BIN / "ballmill")
     sim = os.environ.get("BALLMILL_SIM", "paper")
 
     def sweep(name: str, *overrides: str):
-        return name, lambda tag, env: sh(ballmill, "run", f"+sweep={name}", "hydra/launcher=basic", *overrides,
-                                         tag=tag, env=env)
+        return name, lambda ballmill: ballmill("run", f"+sweep={name}", "hydra/launcher=basic", *overrides)
 
-    def lab_chain(tag: str, env: dict) -> None:
+    def lab_chain(ballmill) -> None:
         # No real videos ship with the project: film a simulation whose ball-wall pair the
         # calibration is not told, as the proof of the method, then validate at the calibrated pair
         # (the MM400 geometry study needs none of it: a unit of its own).
         videos, cal = "outputs/lab/videos", "outputs/lab/calibration"
-        sh(ballmill, "render", f"out={videos}", "wall_restitution=0.6", "wall_friction=0.3", "lab.duration_s=1.5",
-           "sim.seed=7", tag=tag, env=env)
-        sh(ballmill, "calibrate", f"videos={videos}", f"out={cal}", "lab.duration_s=1.5", tag=tag, env=env)
+        ballmill("render", f"out={videos}", "wall_restitution=0.6", "wall_friction=0.3", "lab.duration_s=1.5",
+                 "sim.seed=7")
+        ballmill("calibrate", f"videos={videos}", f"out={cal}", "lab.duration_s=1.5")
         best = json.loads((ROOT / cal / "best.json").read_text())
-        sh(ballmill, "run", "+sweep=lab_validation", "hydra/launcher=basic",
-           f"interactions.steel-pmma.restitution={best['wall_restitution']}",
-           f"interactions.steel-pmma.static_friction={best['wall_friction']}",
-           f"study.observations={cal}/observations.csv", tag=tag, env=env)
+        ballmill("run", "+sweep=lab_validation", "hydra/launcher=basic",
+                 f"interactions.steel-pmma.restitution={best['wall_restitution']}",
+                 f"interactions.steel-pmma.static_friction={best['wall_friction']}",
+                 f"study.observations={cal}/observations.csv")
 
+    names = ("fig3b", "fig4", "shape_rule", "plant", "plant_states", "regional", "stiffness", "lab_validation",
+             "mm400_geometry")
+    report = "report", lambda ballmill: ballmill("report", f"sweeps=[{','.join(f'outputs/sweeps/{n}' for n in names)}]")
     # Largest first (one-core seconds in a reproduce run, each command's start included: plant per
     # state ~400 with its options' fronts, Figure 4 ~230, BPR plant ~190, lab chain ~145, shape rule
     # ~130, Figure 3b ~50, stiffness ~30, MM400 geometry ~25, regional plant ~15), so that the two streams
@@ -100,10 +155,7 @@ def reproduce() -> None:
     # default preset, whose power is within 2 % of steel's: it moves their MSP by under 0.01 %.
     in_two_streams([sweep("plant_states"), sweep("fig4", f"sim={sim}"), sweep("plant"),
                     ("lab", lab_chain), sweep("shape_rule", f"sim={sim}"), sweep("fig3b", f"sim={sim}"),
-                    sweep("stiffness"), sweep("mm400_geometry"), sweep("regional")])
-    names = ("fig3b", "fig4", "shape_rule", "plant", "plant_states", "regional", "stiffness", "lab_validation",
-             "mm400_geometry")
-    sh(ballmill, "report", f"sweeps=[{','.join(f'outputs/sweeps/{name}' for name in names)}]")
+                    sweep("stiffness"), sweep("mm400_geometry"), sweep("regional")], last=report)
 
 
 def test() -> None:

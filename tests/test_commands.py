@@ -36,7 +36,7 @@ DOCS = [ROOT / "README.md", *sorted(p for p in (ROOT / "docs").rglob("*.md") if 
 
 # Shown, not run here, and why (checked as ballmill checks them before running).
 NOT_RUN = {
-    "python3 tasks.py reproduce": "the paper's whole results (15 min): each of its sweeps is a command below",
+    "python3 tasks.py reproduce": "the paper's whole results (10 min): each of its sweeps is a command below",
     "python3 tasks.py test": "this suite",
     "ballmill bench peer=both rounds=3": "LIGGGHTS and LAMMPS (test_peer_torque runs LIGGGHTS where installed)",
     "ballmill run +sweep=fig4 sim=paper sim.arch=cuda sim.threads=1 hydra/launcher=slurm": "a SLURM cluster with GPUs",
