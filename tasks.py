@@ -78,11 +78,14 @@ class Runner:
         self.proc.wait()
 
 
-def in_two_streams(units: list[tuple[str, Callable[[Callable[..., None]], None]]], last=None, start=Runner) -> None:
-    """Run the units (name, function of a `ballmill(*args)` runner) two at a time, in list order, each
-    on one core, then `last` (name, unit) in one of the two: each stream one ballmill process
-    (`start(env)`, Runner) running its units' commands one after another, each sweep's jobs one
-    after another (Hydra's basic launcher; every sweep file sets sim.threads=1), with
+Unit = tuple[str, Callable[[Callable[..., None]], None]]  # a name, and a function of a `ballmill(*args)` runner
+
+
+def in_two_streams(units: list[Unit], last: Unit | None = None, start: Callable[[dict], Runner] = Runner) -> None:
+    """Run the units two at a time, in list order, each on one core, then `last` in one of the
+    two streams: each stream one ballmill process (`start(env)`, Runner) running its units'
+    commands one after another, each sweep's jobs one after another (Hydra's basic launcher;
+    every sweep file sets sim.threads=1), with
     BALLMILL_LOCAL_JOBS=2 so that a command left to pick its threads (render, calibrate) takes one.
     Two one-core streams keep both cores busy where one two-job sweep at a time would leave one
     idle while its last job runs and while the next sweep starts.  After a failure no further unit
