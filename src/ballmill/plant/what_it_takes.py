@@ -58,18 +58,22 @@ def break_even(p: Plant, levers: list[str], span: float) -> pd.DataFrame:
     known = uncertainty.setters(p, 0.0)
     targets = virgin(p)
     rows = {}
+
+    def simulated() -> dict:
+        try:
+            return p.evaluate()
+        except UNSOLVABLE:
+            p.ps.system.empty_recycles()  # the next simulation starts clean
+            raise
+
     p.evaluate()
     for lever in sorted(levers, key=lambda name: not uncertainty.read_after_simulation(name)):
         base, set_ = known[lever]
-        evaluate = p.indicators if uncertainty.read_after_simulation(lever) else p.evaluate
+        evaluate = p.indicators if uncertainty.read_after_simulation(lever) else simulated
 
         def indicators(v: float, set_=set_, evaluate=evaluate) -> dict:
             set_(v)
-            try:
-                return evaluate()
-            except UNSOLVABLE:
-                p.ps.system.empty_recycles()
-                raise
+            return evaluate()
 
         lo, hi = search_range(lever, base, span)
         lo, at_lo = solvable_end(indicators, base, lo)
