@@ -49,8 +49,8 @@ def experiment(tmp_path_factory):
 
 def test_calibration_recovers_the_hidden_pair(experiment):
     """On the mean speed alone (collision_weight=0): the hidden pair's run is the filmed one, off by
-    the tracker's error (measured 0.0007 m/s rms), every other pair's by its own dynamics (0.017 m/s
-    and more over six seeds).  The tracker counts fewer collisions than the frames of the same run
+    the tracker's error (measured 0.07 % rms in mean speed), every other pair's by its own dynamics
+    (1.7 % and more over six seeds).  The tracker counts fewer collisions than the frames of the same run
     show (the hidden pair's collision_error measured +0.21), a bias the size of a restitution step's
     effect: with the collision rate in the score the pair is not told apart (0.045 against 0.055)."""
     s = load(compose("config", ["sim=lab", *LAB]))
