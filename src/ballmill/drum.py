@@ -18,7 +18,6 @@ from .dem import (
     Body,
     Checkpoint,
     Cylinder,
-    Engine,
     Material,
     Mesh,
     Motion,
@@ -30,8 +29,8 @@ from .dem import (
     SimulationError,
     SystemSpec,
     available_memory_bytes,
-    init_taichi,
     memory_estimate_bytes,
+    new_engine,
 )
 from .dem.results import batch_mean, batch_trend
 from .dem.vtk import VtkWriter
@@ -436,8 +435,7 @@ def run_drum_dem(drum: DrumConfig, materials, interactions, sim: SimConfig, out_
     summary_path = out_dir / "dem_summary.json"
     spec = drum_spec(drum, materials, interactions, sim)
     dt = time_step_s(spec, sim)
-    init_taichi(sim.arch, sim.precision, sim.threads, sim.seed)
-    engine = Engine(spec, engine_options(sim, dt))
+    engine = new_engine(spec, engine_options(sim, dt), sim.arch, sim.precision, sim.threads, sim.seed)
     steps = (sim.settle_s + sim.duration_s) / dt
     log.info("drum DEM: %d balls, dt = %.3g s (%.0f %% of Rayleigh), %s neighbour search, %s steps; %.3g "
              "particle-steps to go (about %.2g min at %.0e particle-steps/s)", spec.n_particles, dt,

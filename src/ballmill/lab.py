@@ -18,7 +18,7 @@ import pandas as pd
 
 from .columns import add_frame_velocities
 from .config import ConfigError, InteractionConfig, MM400Config, SimConfig
-from .dem import Body, Capsule, Engine, Interaction, Motion, Recorder, Results, SystemSpec, init_taichi
+from .dem import Body, Capsule, Interaction, Motion, Recorder, Results, SystemSpec, new_engine
 from .scenario import engine_materials, engine_options, time_step_s
 
 JAR_AXIS = (1.0, 0.0, 0.0)  # the jar lies horizontally along x; it swings about a vertical axis
@@ -137,8 +137,7 @@ def run_mm400(cfg: MM400Config, conds: list[Condition], materials, interactions:
     spec = mm400_spec(cfg, conds, materials, interactions, sim)
     frame = 1.0 / cfg.camera_fps
     dt = frame / math.ceil(frame / time_step_s(spec, sim))  # a whole number of steps per camera frame
-    init_taichi(sim.arch, sim.precision, sim.threads, sim.seed)
-    engine = Engine(spec, engine_options(sim, dt))
+    engine = new_engine(spec, engine_options(sim, dt), sim.arch, sim.precision, sim.threads, sim.seed)
     return engine.run(cfg.duration_s, frame * frames_per_sample, Recorder(engine, trajectory_every=1), label="mm400")
 
 

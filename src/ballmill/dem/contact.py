@@ -9,6 +9,7 @@ to the partner's (m/s).
 import numpy as np
 import taichi as ti
 
+from . import layout
 from .materials import damping_ratio_for_restitution, effective_shear_modulus, effective_youngs_modulus
 from .transfer import write_fields
 
@@ -22,11 +23,11 @@ class PairTables:
     def __init__(self, spec):
         m, r = len(spec.material_names), spec.n_replicas
         mats = [spec.materials[k] for k in spec.material_names]
-        self.e_star = ti.field(float, (m, m))
-        self.g_star = ti.field(float, (m, m))
-        self.zeta = ti.field(float, (r, m, m))
-        self.mu_s = ti.field(float, (r, m, m))
-        self.mu_r = ti.field(float, (r, m, m))
+        self.e_star = layout.scalar(float, (m, m))
+        self.g_star = layout.scalar(float, (m, m))
+        self.zeta = layout.scalar(float, (r, m, m))
+        self.mu_s = layout.scalar(float, (r, m, m))
+        self.mu_r = layout.scalar(float, (r, m, m))
         zeta, mu_s, mu_r = (np.zeros((r, m, m)) for _ in range(3))
         particle_mats = set(np.unique(spec.material).tolist())
         for rep in range(r):

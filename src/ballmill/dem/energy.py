@@ -18,7 +18,7 @@ Summed per replica in particle order, so the totals are as deterministic as the 
 import numpy as np
 import taichi as ti
 
-from .layout import records
+from . import layout
 
 CHANNELS = ("wall_work_j", "dissipated_normal_j", "dissipated_tangential_j", "dissipated_rolling_j")
 N_OUT = len(CHANNELS) + 1  # the channels and the elastic energy now
@@ -30,9 +30,9 @@ class EnergyBook:
     def __init__(self, particles):
         self.p = particles
         n = particles.cap
-        self.cumulative = ti.Vector.field(len(CHANNELS), float)
-        self.elastic_pairs, self.elastic_walls, self.spring_pairs, self.spring_walls = (ti.field(float) for _ in range(4))
-        records(n, self.cumulative, self.elastic_pairs, self.elastic_walls, self.spring_pairs, self.spring_walls)
+        self.cumulative = layout.vector(len(CHANNELS), float)
+        self.elastic_pairs, self.elastic_walls, self.spring_pairs, self.spring_walls = (layout.scalar(float) for _ in range(4))
+        layout.records(n, self.cumulative, self.elastic_pairs, self.elastic_walls, self.spring_pairs, self.spring_walls)
 
     @ti.func
     def add(self, i, work, normal, tangential, rolling):

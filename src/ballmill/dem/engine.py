@@ -24,6 +24,7 @@ then), so every launch gives identical results, and none depends on the number o
 """
 
 import logging
+import pickle
 import sys
 import time
 from collections.abc import Callable
@@ -37,15 +38,17 @@ from tqdm import tqdm
 from .checkpoint import Checkpoint, SettledBed
 from .contact import PairTables
 from .energy import N_OUT, EnergyBook, named_totals
+from .layout import Allocation, LayoutMismatch, allocating
 from .monitor import CELL, FLAGS, NEIGHBOURS, WALL_CONTACTS, Monitor
 from .motion import Motions
 from .neighbours import NeighbourList
 from .pairs import PairContacts
 from .particles import Particles, capacity
 from .results import Recorder, Results
+from .runtime import cpu_threads, init_taichi, keep_engine, kept_engine
 from .system import SystemSpec
 from .team import SPACING, Pacer, Team, block_lead
-from .transfer import FieldSet, nbytes
+from .transfer import FieldSet, field_set, nbytes
 from .walls import LOAD_COLUMNS, Walls, mean_loads
 
 log = logging.getLogger(__name__)
@@ -127,9 +130,40 @@ class EngineOptions:
 
 @ti.data_oriented
 class Engine:
-    """A Taichi DEM system built from a SystemSpec; Taichi must already be initialised."""
+    """A Taichi DEM system built from a SystemSpec; Taichi must already be initialised
+    (`new_engine` starts it, or takes the last engine again)."""
 
     def __init__(self, spec: SystemSpec, options: EngineOptions):
+        self._allocation = Allocation()
+        with allocating(self._allocation):
+            self._build(spec, options)
+        self._signature = kernel_signature(self)
+        self._start()
+
+    def reload(self, spec: SystemSpec, options: EngineOptions) -> bool:
+        """Take another system into this engine, keeping its fields and so the kernels Taichi
+        compiled for them, when the system's fields have the same shapes and its kernels the same
+        compile-time values (kernel_signature): then the engine starts as a new one would, the
+        same bits (tests/test_engine_reuse.py).  False when they differ: the engine is then of
+        no use until Taichi restarts."""
+        if not self._rebuild(spec, options) or kernel_signature(self) != self._signature:
+            return False
+        self._allocation.zero()  # as new fields are, then the system's values again
+        self._rebuild(spec, options)
+        self._start()
+        return True
+
+    def _rebuild(self, spec: SystemSpec, options: EngineOptions) -> bool:
+        """_build into this engine's fields; False when the system's fields would have other shapes."""
+        try:
+            with allocating(self._allocation), self._allocation.replaying():
+                self._build(spec, options)
+        except LayoutMismatch:
+            return False
+        return True
+
+    def _build(self, spec: SystemSpec, options: EngineOptions) -> None:
+        """The parts and their fields, set to the system's values."""
         self.spec, self.opt, self.dt = spec, options, options.dt_s
         self.p = Particles(spec)
         self.p.dt[None] = self.dt
@@ -154,8 +188,10 @@ class Engine:
         self.pacer = Pacer(self.n, threads) if self.team and options.launch is None else None
         self.batches = min(self.n_rep, BATCHES_PER_THREAD * threads)  # of replicas, in a serial launch
         self.max_overlap = self.monitor.max_overlap
+
+    def _start(self) -> None:
+        """The first list build and forces, at step 0."""
         self.step_index = 0
-        self._state_set = None
         if self.launch == "parallel":
             self.nl.build_all()
             self._first_forces()
@@ -444,11 +480,8 @@ class Engine:
     @property
     def _state_fields(self) -> FieldSet:
         """The fields each part names as its STATE, moved in one launch (compiled on first use)."""
-        if self._state_set is None:
-            self._state_set = FieldSet({f"{part}.{name}": getattr(getattr(self, part), name)
-                                        for part in ("p", "nl", "walls", "book", "monitor")
-                                        for name in type(getattr(self, part)).STATE})
-        return self._state_set
+        return field_set({f"{part}.{name}": getattr(getattr(self, part), name)
+                          for part in ("p", "nl", "walls", "book", "monitor") for name in type(getattr(self, part)).STATE})
 
     def state(self) -> dict:
         """Everything a run needs to continue: the fields each part names as its STATE, and the
@@ -576,6 +609,55 @@ class Engine:
     def wall_axis(self) -> np.ndarray:
         """(replicas, bodies, 3) motion axes (world)."""
         return self.mo.axis_np
+
+
+# What an engine's parts hold that no kernel reads: the system's host-side copies, the options
+# (their compiled values are the parts'), run counters, the pacer's timings, the bookkeeping.
+HOST_SIDE = frozenset({"spec", "opt", "dt", "n", "counts", "mass_np", "axis_np", "wall_body", "mesh_body", "n_chunks",
+                       "pacer", "step_index", "_due", "_accumulated_steps", "initial_energy_j", "_allocation",
+                       "_signature"})
+
+
+def kernel_signature(engine: Engine) -> tuple:
+    """Every value but a field that the engine and its parts hold, by where it is held (HOST_SIDE
+    left out): what Taichi may have compiled into the kernels as constants (loop bounds, the
+    skin, the cell size, which code paths exist).  Engines whose signatures are equal and whose
+    fields have the same shapes run the same compiled kernels."""
+    values, seen = [], set()
+
+    def walk(part, path: str) -> None:
+        seen.add(id(part))
+        for name, value in vars(part).items():
+            if name in HOST_SIDE or isinstance(value, Field) or id(value) in seen:
+                continue
+            if type(value).__module__.startswith(__package__) and hasattr(value, "__dict__"):
+                walk(value, f"{path}.{name}")
+            else:
+                try:
+                    values.append((f"{path}.{name}", pickle.dumps(value)))
+                except Exception:  # noqa: BLE001 (unpicklable: by its repr, which names the object: never equal)
+                    values.append((f"{path}.{name}", repr(value)))
+
+    walk(engine, "engine")
+    return tuple(values)
+
+
+def new_engine(spec: SystemSpec, options: EngineOptions, arch: str = "cpu", precision: str = "f64",
+               threads: int = 0, seed: int = 0) -> Engine:
+    """An engine for the system with Taichi started for these settings: the last engine this
+    process built (with new_engine) taken again when the system fits its compiled kernels
+    (Engine.reload), which saves compiling or loading them from Taichi's cache (~2-3 s a run);
+    else Taichi restarted (init_taichi) and a new engine built.  No kernel draws Taichi's random
+    numbers, so the seed is not among the settings an engine is kept for."""
+    settings = (arch, precision, cpu_threads(threads))
+    kept = kept_engine(settings)
+    if kept is not None and kept.reload(spec, options):
+        log.debug("the last engine taken again: its kernels fit this system")
+        return kept
+    init_taichi(arch, precision, threads, seed)
+    engine = Engine(spec, options)
+    keep_engine(settings, engine)
+    return engine
 
 
 def _stored(energy: dict[str, np.ndarray]) -> np.ndarray:

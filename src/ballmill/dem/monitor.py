@@ -3,6 +3,8 @@
 import numpy as np
 import taichi as ti
 
+from . import layout
+
 # overflow codes
 NEIGHBOURS, WALL_CONTACTS, CELL = 1, 2, 3
 # what `export_flags` writes, in this order
@@ -17,13 +19,13 @@ class Monitor:
 
     def __init__(self, event_capacity: int):
         self.capacity = event_capacity
-        self.ev_count = ti.field(ti.i32, ())
-        self.ev_int = ti.Vector.field(4, ti.i32, event_capacity)  # particle, partner key, start step, end step
-        self.ev_val = ti.Vector.field(2, float, event_capacity)  # impact normal speed, energy dissipated
-        self.max_overlap = ti.field(float, ())  # largest overlap / smaller radius so far
-        self.escaped = ti.field(ti.i32, ())  # 1 + id of a particle that left the domain
-        self.overflow = ti.field(ti.i32, ())  # one of the overflow codes
-        self.fast = ti.field(ti.i32, ())  # 1 + id of a particle that moved over half the skin in one step
+        self.ev_count = layout.scalar(ti.i32, ())
+        self.ev_int = layout.vector(4, ti.i32, event_capacity)  # particle, partner key, start step, end step
+        self.ev_val = layout.vector(2, float, event_capacity)  # impact normal speed, energy dissipated
+        self.max_overlap = layout.scalar(float, ())  # largest overlap / smaller radius so far
+        self.escaped = layout.scalar(ti.i32, ())  # 1 + id of a particle that left the domain
+        self.overflow = layout.scalar(ti.i32, ())  # one of the overflow codes
+        self.fast = layout.scalar(ti.i32, ())  # 1 + id of a particle that moved over half the skin in one step
 
     @ti.func
     def collision(self, i, key, start, end, vn, ed):

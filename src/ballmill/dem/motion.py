@@ -11,6 +11,7 @@ import numpy as np
 import taichi as ti
 from taichi.lang.util import to_numpy_type
 
+from . import layout
 from .transfer import write_fields
 
 
@@ -21,19 +22,19 @@ class Motions:
     def __init__(self, spec, n_rep: int):
         r, b = n_rep, max(len(spec.bodies), 1)
         self.n_rep, self.n_body = n_rep, len(spec.bodies)
-        self.pivot = ti.Vector.field(3, float, (r, b))
-        self.axis = ti.Vector.field(3, float, (r, b))
-        self.trans = ti.Vector.field(3, float, (r, b))
-        self.omega = ti.field(float, (r, b))
-        self.amp = ti.field(float, (r, b))
-        self.freq = ti.field(float, (r, b))
-        self.phase = ti.field(float, (r, b))
-        self.start = ti.field(float, (r, b))
+        self.pivot = layout.vector(3, float, (r, b))
+        self.axis = layout.vector(3, float, (r, b))
+        self.trans = layout.vector(3, float, (r, b))
+        self.omega = layout.scalar(float, (r, b))
+        self.amp = layout.scalar(float, (r, b))
+        self.freq = layout.scalar(float, (r, b))
+        self.phase = layout.scalar(float, (r, b))
+        self.start = layout.scalar(float, (r, b))
         # current pose: rotation matrix, displacement d and its rate, angular velocity
-        self.rot = ti.Matrix.field(3, 3, float, (r, b))
-        self.d = ti.Vector.field(3, float, (r, b))
-        self.vd = ti.Vector.field(3, float, (r, b))
-        self.w = ti.Vector.field(3, float, (r, b))
+        self.rot = layout.matrix(3, 3, float, (r, b))
+        self.d = layout.vector(3, float, (r, b))
+        self.vd = layout.vector(3, float, (r, b))
+        self.w = layout.vector(3, float, (r, b))
         rows = {k: np.zeros((r, b) + s) for k, s in
                 (("pivot", (3,)), ("axis", (3,)), ("trans", (3,)), ("omega", ()), ("amp", ()), ("freq", ()),
                  ("phase", ()), ("start", ()))}

@@ -32,7 +32,7 @@ import math
 import numpy as np
 import taichi as ti
 
-from .layout import records
+from . import layout
 from .monitor import CELL, NEIGHBOURS
 from .particles import capacity
 
@@ -65,27 +65,27 @@ class NeighbourList:
         on_cpu = ti.lang.impl.current_cfg().arch == ti.cpu
         self.serial_binning = on_cpu if parallel_binning is None else not parallel_binning
         k = capacity
-        self.nb_n = ti.field(ti.i32, cap)
-        self.rv_n = ti.field(ti.i32, cap)
-        self.rv_slot = ti.field(ti.i32, (cap, k))  # j * capacity + s of the lower partner's slot
-        self.nb_j = ti.field(ti.i32, (cap, k))
+        self.nb_n = layout.scalar(ti.i32, cap)
+        self.rv_n = layout.scalar(ti.i32, cap)
+        self.rv_slot = layout.scalar(ti.i32, (cap, k))  # j * capacity + s of the lower partner's slot
+        self.nb_j = layout.scalar(ti.i32, (cap, k))
         # bit s of open: slot s is an open contact, whose records are rec[i, s]; bit r of used:
         # record r is an open contact's (a pair loop or gather reads no other record)
-        self.open, self.used = ti.field(ti.u64), ti.field(ti.u64)
-        records(cap, self.open, self.used)
-        self.rec = ti.field(ti.u8, (cap, k))
+        self.open, self.used = layout.scalar(ti.u64), layout.scalar(ti.u64)
+        layout.records(cap, self.open, self.used)
+        self.rec = layout.scalar(ti.u8, (cap, k))
         # two records per open contact: its history, and the force on i (kept to the next step,
         # history too) and the torque on j (the gather's)
-        self.start, self.vn0, self.ed = ti.field(ti.i32), ti.field(float), ti.field(float)
-        self.f, self.t_j, self.xi = ti.Vector.field(3, float), ti.Vector.field(3, float), ti.Vector.field(3, float)
-        records((cap, k), self.start, self.xi, self.vn0, self.ed, slot_major=True)
-        records((cap, k), self.f, self.t_j, slot_major=True)
+        self.start, self.vn0, self.ed = layout.scalar(ti.i32), layout.scalar(float), layout.scalar(float)
+        self.f, self.t_j, self.xi = layout.vector(3, float), layout.vector(3, float), layout.vector(3, float)
+        layout.records((cap, k), self.start, self.xi, self.vn0, self.ed, slot_major=True)
+        layout.records((cap, k), self.f, self.t_j, slot_major=True)
         # scratch for a rebuild: the new partners of i before they replace the old ones
-        self.new_j = ti.field(ti.i32, (cap, k))
-        self.x_ref = ti.Vector.field(3, float, cap)
-        self.due = ti.field(ti.i32, reps)  # 1: rebuild the replica's list before its next step
-        self.any_due = ti.field(ti.i32, ())
-        self.builds = ti.field(ti.i32, ())
+        self.new_j = layout.scalar(ti.i32, (cap, k))
+        self.x_ref = layout.vector(3, float, cap)
+        self.due = layout.scalar(ti.i32, reps)  # 1: rebuild the replica's list before its next step
+        self.any_due = layout.scalar(ti.i32, ())
+        self.builds = layout.scalar(ti.i32, ())
         self.due.fill(1)
         self._build_grid(spec)
 
@@ -97,7 +97,7 @@ class NeighbourList:
         lo, hi = np.asarray(spec.domain_lo_m, float), np.asarray(spec.domain_hi_m, float)
         dims = np.maximum(np.ceil((hi - lo) / self.h).astype(int), 1) if self.use_grid else np.ones(3, int)
         cells = int(np.prod(dims)) * self.n_rep
-        self.dims = ti.Vector.field(3, ti.i32, ())
+        self.dims = layout.vector(3, ti.i32, ())
         self.dims[None] = dims.astype(np.int32)
         r_min = float(spec.radius_m.min())
         # centres at least 2 r_min (1 - 5 % overlap) apart: one size, at most (h / 1.9 r_min + 1)^3 in a
@@ -107,8 +107,8 @@ class NeighbourList:
         if r_min < float(spec.radius_m.max()):
             ball = 4 / 3 * math.pi * (0.95 * r_min) ** 3
             self.cell_cap = max(self.cell_cap, math.floor(0.7405 * (self.h + 1.9 * r_min) ** 3 / ball))
-        self.cell_count = ti.field(ti.i32, capacity(cells))
-        self.cell_list = ti.field(ti.i32, (capacity(cells), self.cell_cap))
+        self.cell_count = layout.scalar(ti.i32, capacity(cells))
+        self.cell_list = layout.scalar(ti.i32, (capacity(cells), self.cell_cap))
 
     # ------------------------------------------------------------------ cell grid
     @ti.func

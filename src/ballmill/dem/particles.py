@@ -9,7 +9,7 @@ import math
 import numpy as np
 import taichi as ti
 
-from .layout import records
+from . import layout
 from .transfer import write_fields
 
 
@@ -42,20 +42,20 @@ class Particles:
         counts = np.bincount(spec.replica, minlength=reps)
         self.n, self.n_rep, self.counts = n, reps, counts
         self.cap = cap = capacity(n)
-        self.live = ti.field(ti.i32, ())
+        self.live = layout.scalar(ti.i32, ())
         # what a contact reads of a partner, in one record; then what the integrator adds
-        self.x, self.v, self.w = ti.Vector.field(3, float), ti.Vector.field(3, float), ti.Vector.field(3, float)
-        self.rad, self.mass, self.mat = ti.field(float), ti.field(float), ti.field(ti.i32)
-        records(cap, self.x, self.v, self.w, self.rad, self.mass, self.mat)
-        self.f, self.tq, self.inertia = ti.Vector.field(3, float), ti.Vector.field(3, float), ti.field(float)
-        records(cap, self.f, self.tq, self.inertia)
-        self.rep = ti.field(ti.i32, cap)
-        self.rep_start = ti.field(ti.i32, reps)
-        self.rep_end = ti.field(ti.i32, reps)
-        self.gravity = ti.Vector.field(3, float, ())
-        self.dt = ti.field(float, ())
-        self.domain_lo = ti.Vector.field(3, float, ())
-        self.domain_hi = ti.Vector.field(3, float, ())
+        self.x, self.v, self.w = layout.vector(3, float), layout.vector(3, float), layout.vector(3, float)
+        self.rad, self.mass, self.mat = layout.scalar(float), layout.scalar(float), layout.scalar(ti.i32)
+        layout.records(cap, self.x, self.v, self.w, self.rad, self.mass, self.mat)
+        self.f, self.tq, self.inertia = layout.vector(3, float), layout.vector(3, float), layout.scalar(float)
+        layout.records(cap, self.f, self.tq, self.inertia)
+        self.rep = layout.scalar(ti.i32, cap)
+        self.rep_start = layout.scalar(ti.i32, reps)
+        self.rep_end = layout.scalar(ti.i32, reps)
+        self.gravity = layout.vector(3, float, ())
+        self.dt = layout.scalar(float, ())
+        self.domain_lo = layout.vector(3, float, ())
+        self.domain_hi = layout.vector(3, float, ())
         density = np.array([spec.materials[m].density_kg_per_m3 for m in spec.material_names])[spec.material]
         self.mass_np = density * 4.0 / 3.0 * math.pi * spec.radius_m**3
         ends = np.cumsum(counts)

@@ -1,4 +1,5 @@
-"""Taichi start-up in one place: arch, precision and threads come from the caller."""
+"""Taichi start-up in one place: arch, precision and threads come from the caller; the engine
+kept since the last start (engine.new_engine)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,8 @@ import sys
 
 import taichi as ti
 from taichi.lang.ast.ast_transformer_utils import ASTTransformerContext
+
+from .transfer import forget_field_sets
 
 ARCHS = {"cpu": ti.cpu, "cuda": ti.cuda}
 PRECISIONS = {"f64": ti.f64, "f32": ti.f32}
@@ -39,6 +42,8 @@ def init_taichi(arch: str = "cpu", precision: str = "f64", threads: int = 0, see
     if arch == "cpu":
         kwargs["cpu_max_num_threads"] = cpu_threads(threads)
     ASTTransformerContext.get_pos_info = brief_position
+    _KEPT.clear()
+    forget_field_sets()
     ti.reset()
     ti.init(**kwargs)
     actual = ti.lang.impl.current_cfg().arch
@@ -46,6 +51,19 @@ def init_taichi(arch: str = "cpu", precision: str = "f64", threads: int = 0, see
         raise RuntimeError(
             "sim.arch=cuda was asked for but Taichi found no CUDA device; use sim.arch=cpu here"
         )
+
+
+_KEPT: dict = {}  # the engine new_engine keeps (engine.py), by the settings Taichi was started with
+
+
+def kept_engine(settings: tuple):
+    """The engine kept for these settings, if Taichi runs with them and has not restarted since."""
+    return _KEPT.get(settings)
+
+
+def keep_engine(settings: tuple, engine) -> None:
+    _KEPT.clear()
+    _KEPT[settings] = engine
 
 
 FULL_POSITION = ASTTransformerContext.get_pos_info

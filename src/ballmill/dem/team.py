@@ -24,6 +24,7 @@ import math
 
 import taichi as ti
 
+from . import layout
 from .particles import capacity
 
 log = logging.getLogger(__name__)
@@ -51,14 +52,14 @@ class Team:
         chunk = min(MAX_CHUNK, max(MIN_CHUNK, n // (PER_MEMBER * size)))
         self.n_chunks = math.ceil(n / chunk)
         # read at run time, so that systems of other sizes share the compiled kernels
-        self.chunk = ti.field(ti.i32, ())  # particles per chunk
-        self.chunks = ti.field(ti.i32, ())  # = n_chunks
+        self.chunk = layout.scalar(ti.i32, ())  # particles per chunk
+        self.chunks = layout.scalar(ti.i32, ())  # = n_chunks
         self.chunk[None], self.chunks[None] = chunk, self.n_chunks
         # the last phase (of this launch) that took each chunk; sized by the team, not by n, so
         # that systems of one size class share the compiled kernels (n_chunks <= ~33 per member)
-        self.claim = ti.field(ti.i32, capacity(max(2 * PER_MEMBER * size, math.ceil(n / MAX_CHUNK) + 1)))
+        self.claim = layout.scalar(ti.i32, capacity(max(2 * PER_MEMBER * size, math.ceil(n / MAX_CHUNK) + 1)))
         assert self.n_chunks <= self.claim.shape[0]
-        self.arrived = ti.field(ti.i32, ())  # arrivals at barriers this launch
+        self.arrived = layout.scalar(ti.i32, ())  # arrivals at barriers this launch
 
     @property
     def members(self) -> int:

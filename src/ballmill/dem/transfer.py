@@ -128,8 +128,24 @@ class FieldSet:
             group.write(values)
 
 
+_SETS: dict[tuple, FieldSet] = {}  # this Taichi session's field sets, by their fields
+
+
+def field_set(fields: dict) -> FieldSet:
+    """A FieldSet of these named fields: the one made before for the same fields, so that its
+    kernels compile once per Taichi session (runtime.init_taichi forgets them all)."""
+    key = tuple((name, id(field)) for name, field in fields.items())  # a set keeps its fields alive
+    if key not in _SETS:
+        _SETS[key] = FieldSet(fields)
+    return _SETS[key]
+
+
+def forget_field_sets() -> None:
+    _SETS.clear()
+
+
 def write_fields(values: list) -> None:
     """Set each (field, array) pair's field to its array (the field's shape), in one kernel
     launch per element type."""
     names = {str(k): field for k, (field, _) in enumerate(values)}
-    FieldSet(names).write({str(k): array for k, (_, array) in enumerate(values)})
+    field_set(names).write({str(k): array for k, (_, array) in enumerate(values)})

@@ -19,9 +19,9 @@ import math
 import numpy as np
 import taichi as ti
 
+from . import layout
 from .contact import absorbed_power, closest_point_on_triangle, rolling_torque, wall_geometry
 from .geometry import CAPSULE, CYLINDER, PLANE, Capsule, Cylinder, Mesh, Plane
-from .layout import records
 from .monitor import WALL_CONTACTS
 from .motion import unit
 from .transfer import write_fields
@@ -52,16 +52,16 @@ class Walls:
         self.k_max = wall_slots(self.n_wall, self.n_mesh > 0, capacity)
         cap, k, b = self.cap, self.k_max, max(self.n_body, 1)
         # bit w: analytic wall w is within reach of the particle (set at each list build)
-        self.reach = ti.field(ti.u32, cap)
-        self.c_n = ti.field(ti.i32, (2, cap))
+        self.reach = layout.scalar(ti.u32, cap)
+        self.c_n = layout.scalar(ti.i32, (2, cap))
         # one record per (parity, particle, slot); c_f: the force on the particle at that step
-        self.c_key, self.c_start, self.c_vn, self.c_ed = ti.field(ti.i32), ti.field(ti.i32), ti.field(float), ti.field(float)
-        self.c_xi, self.c_f = ti.Vector.field(3, float), ti.Vector.field(3, float)
-        records((2, cap, k), self.c_key, self.c_start, self.c_vn, self.c_ed, self.c_xi, self.c_f)
+        self.c_key, self.c_start, self.c_vn, self.c_ed = layout.scalar(ti.i32), layout.scalar(ti.i32), layout.scalar(float), layout.scalar(float)
+        self.c_xi, self.c_f = layout.vector(3, float), layout.vector(3, float)
+        layout.records((2, cap, k), self.c_key, self.c_start, self.c_vn, self.c_ed, self.c_xi, self.c_f)
         # one record per (particle, body)
-        self.acc_f, self.acc_tq, self.acc_tq_roll = (ti.Vector.field(3, float) for _ in range(3))
-        self.acc_pw, self.acc_pw_roll = ti.field(float), ti.field(float)
-        records((cap, b), self.acc_f, self.acc_tq, self.acc_tq_roll, self.acc_pw, self.acc_pw_roll)
+        self.acc_f, self.acc_tq, self.acc_tq_roll = (layout.vector(3, float) for _ in range(3))
+        self.acc_pw, self.acc_pw_roll = layout.scalar(float), layout.scalar(float)
+        layout.records((cap, b), self.acc_f, self.acc_tq, self.acc_tq_roll, self.acc_pw, self.acc_pw_roll)
 
     # ---------------------------------------------------------------- set-up
     def _build_primitives(self, spec) -> None:
@@ -88,19 +88,19 @@ class Walls:
         self.wall_body = np.array([row[1] for row in rows], int)
         self.mesh_body = np.array([b for b, _, _ in meshes], int)
         nw = max(self.n_wall, 1)
-        self.w_kind = ti.field(ti.i32, nw)
-        self.w_body = ti.field(ti.i32, nw)
-        self.w_mat = ti.field(ti.i32, nw)
-        self.w_point = ti.Vector.field(3, float, nw)
-        self.w_axis = ti.Vector.field(3, float, nw)
-        self.w_radius = ti.field(float, nw)
-        self.w_half = ti.field(float, nw)
+        self.w_kind = layout.scalar(ti.i32, nw)
+        self.w_body = layout.scalar(ti.i32, nw)
+        self.w_mat = layout.scalar(ti.i32, nw)
+        self.w_point = layout.vector(3, float, nw)
+        self.w_axis = layout.vector(3, float, nw)
+        self.w_radius = layout.scalar(float, nw)
+        self.w_half = layout.scalar(float, nw)
         for k, (kind, b, mat, point, axis, radius, half) in enumerate(rows):
             self.w_kind[k], self.w_body[k], self.w_mat[k] = kind, b, mat
             self.w_point[k], self.w_axis[k] = point, axis
             self.w_radius[k], self.w_half[k] = radius, half
         # 1: the wall's motion in that replica keeps every point's distance to it (see still_under)
-        self.w_still = ti.field(ti.i32, (spec.n_replicas, nw))
+        self.w_still = layout.scalar(ti.i32, (spec.n_replicas, nw))
         for r in range(spec.n_replicas):
             for k, (kind, b, _, point, axis, _, _) in enumerate(rows):
                 self.w_still[r, k] = still_under(spec.bodies[b].motion(r), kind, point, axis)
@@ -109,16 +109,16 @@ class Walls:
     def _build_meshes(self, spec, tris, tri_body, tri_mat, meshes) -> None:
         """Triangles in body frame, binned per mesh in a uniform grid (CSR) of cell >= 2 r_max."""
         nt, nm = max(self.n_tri, 1), max(self.n_mesh, 1)
-        self.t_corner = ti.Vector.field(3, float, (nt, 3))
-        self.t_body = ti.field(ti.i32, nt)
-        self.t_mat = ti.field(ti.i32, nt)
-        self.m_body = ti.field(ti.i32, nm)
-        self.m_tri0 = ti.field(ti.i32, nm)
-        self.m_tri1 = ti.field(ti.i32, nm)
-        self.m_lo = ti.Vector.field(3, float, nm)
-        self.m_dims = ti.Vector.field(3, ti.i32, nm)
-        self.m_cell0 = ti.field(ti.i32, nm)
-        self.m_h = ti.field(float, nm)
+        self.t_corner = layout.vector(3, float, (nt, 3))
+        self.t_body = layout.scalar(ti.i32, nt)
+        self.t_mat = layout.scalar(ti.i32, nt)
+        self.m_body = layout.scalar(ti.i32, nm)
+        self.m_tri0 = layout.scalar(ti.i32, nm)
+        self.m_tri1 = layout.scalar(ti.i32, nm)
+        self.m_lo = layout.vector(3, float, nm)
+        self.m_dims = layout.vector(3, ti.i32, nm)
+        self.m_cell0 = layout.scalar(ti.i32, nm)
+        self.m_h = layout.scalar(float, nm)
         starts, ids, cell0 = [0], [], 0
         reach = 2.0 * float(spec.radius_m.max())
         for k, (b, t0, mesh) in enumerate(meshes):
@@ -141,8 +141,8 @@ class Walls:
             self.m_body[k], self.m_tri0[k], self.m_tri1[k] = b, t0, t0 + len(corners)
             self.m_lo[k], self.m_dims[k], self.m_cell0[k], self.m_h[k] = lo, dims, cell0, h
             cell0 += len(cells)
-        self.mc_start = ti.field(ti.i32, len(starts))
-        self.mc_tris = ti.field(ti.i32, max(len(ids), 1))
+        self.mc_start = layout.scalar(ti.i32, len(starts))
+        self.mc_tris = layout.scalar(ti.i32, max(len(ids), 1))
         write_fields([(self.mc_start, np.array(starts, dtype=np.int32)),
                       *([(self.mc_tris, np.array(ids, dtype=np.int32))] if ids else []),
                       *([(self.t_corner, tris), (self.t_body, np.array(tri_body, dtype=np.int32)),
