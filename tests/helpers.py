@@ -6,7 +6,7 @@ import os
 import numpy as np
 
 from ballmill.config import DrumConfig, InteractionConfig, MaterialConfig, SimConfig
-from ballmill.dem import Body, Engine, EngineOptions, Interaction, Material, Plane, Recorder, SystemSpec, init_taichi
+from ballmill.dem import Body, EngineOptions, Interaction, Material, Plane, Recorder, SystemSpec, new_engine
 
 RIGID = Material("rigid", 1.0, 1e25, 0.3)  # a wall that does not deform: E* = E_ball / (1 - v^2)
 NO_GRAVITY = (0.0, 0.0, 0.0)
@@ -34,8 +34,9 @@ def floor_system(material, radius, velocities, restitutions=(1.0,), friction=0.0
 
 
 def run(spec, dt, duration, sample_every=None, trajectory_every=0, phases=(), **options):
-    init_taichi(os.environ.get("BALLMILL_TEST_ARCH", "cpu"), os.environ.get("BALLMILL_TEST_PRECISION", "f64"))
-    engine = Engine(spec, EngineOptions(dt_s=dt, **options))
+    """The engine (the kept one where the system fits it, as a run takes it) and its results."""
+    engine = new_engine(spec, EngineOptions(dt_s=dt, **options), os.environ.get("BALLMILL_TEST_ARCH", "cpu"),
+                        os.environ.get("BALLMILL_TEST_PRECISION", "f64"))
     results = engine.run(duration, sample_every or duration, Recorder(engine, trajectory_every), phases=phases)
     return engine, results
 
