@@ -9,9 +9,9 @@ the same bits.
 Every field of an engine is made here (`scalar`, `vector`, `matrix`, `records`).  While an
 `Allocation` records, the fields made are kept in order; while it replays, the same calls
 get those fields back, each checked to be of the same kind, type and shape
-(`LayoutMismatch` otherwise), and nothing is allocated; `zero` sets them all to zero.  A kept engine built again for
-another system of the same shapes so keeps its fields, and with them the kernels Taichi
-compiled for them (engine.py: `Engine.reload`).
+(`LayoutMismatch` otherwise), and nothing is allocated; `zero` sets them all to zero.  A
+kept engine built again for another system of the same shapes so keeps its fields, and with
+them the kernels Taichi compiled for them (engine.py: `Engine.reload`).
 """
 
 from contextlib import contextmanager
